@@ -1,0 +1,66 @@
+#pragma once
+// Run parameters from a TOML file. Relative paths are resolved against the config file's
+// directory. Unknown keys are an InputError naming the nearest valid key.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vimd {
+
+struct ForceFieldConfig {
+  double cutoff = 0.9;                          // nm, rvdw = rcoulomb
+  std::string vdw_modifier = "potential-shift"; // "none" | "potential-shift" | "force-switch" | "potential-switch"
+  double vdw_switch = 0.0;                      // nm, start of the switch region
+  std::string coulomb = "reaction-field";       // "reaction-field" | "cutoff" | "none"
+  double epsilon_r = 1.0;
+  double epsilon_rf = 0.0;                      // 0 means infinity
+  double neighbor_skin = 0.1;                   // nm, Verlet buffer
+};
+
+// A user Butcher tableau as given in TOML; checked when the integrator is built.
+struct TableauConfig {
+  std::vector<std::vector<double>> a;
+  std::vector<double> b, c;
+  int order = 0;
+  int line = 0;  // where it was defined, for error messages
+};
+
+struct IntegratorConfig {
+  std::string type = "rattle";  // "verlet" | "shake" | "rattle" | "vi" | "rk"
+  double dt = 0.002;            // ps
+  long steps = 1000;
+  double constraint_tolerance = 1e-10;  // relative
+  std::optional<double> temperature;    // K, initial velocities when the .gro has none
+  std::uint64_t seed = 1;
+
+  // Variational / Runge–Kutta integrators.
+  std::string method = "rk4";             // tableau name, or "user" with [integrator.tableau]
+  std::optional<std::string> method_minus;  // default: same as method
+  std::array<double, 2> bias = {0.0, 1.0};  // α⁻, α⁺
+  std::string projection = "euclidean";     // "euclidean" | "mass"
+  std::optional<double> solver_tolerance;   // default chosen per method by the integrator
+  int max_iterations = 50;
+  std::string acceleration = "none";        // "none" | "anderson"
+  std::optional<TableauConfig> tableau;
+};
+
+struct OutputConfig {
+  std::filesystem::path dir = "out";
+  long trajectory_every = 100;  // steps; 0 disables
+  long energy_every = 10;       // steps; 0 disables
+};
+
+struct RunConfig {
+  std::filesystem::path file;  // the TOML file itself
+  std::filesystem::path structure, topology;
+  ForceFieldConfig forcefield;
+  IntegratorConfig integrator;
+  OutputConfig output;
+};
+
+RunConfig read_config(const std::filesystem::path& file);
+
+}  // namespace vimd

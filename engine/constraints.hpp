@@ -1,0 +1,85 @@
+#pragma once
+// Holonomic distance constraints g_a(q) = ½(|q_i − q_j|² − d_a²) and the linear algebra every
+// constrained integrator needs: G = Dg, Gᵀλ, the constant Hessians H_a, and solves with
+// S = G(q_left) W G(q_right)ᵀ factorised per coupled cluster (3×3 for rigid water, sparse for chains).
+// All differences go through the box's minimum image.
+#include <memory>
+#include <vector>
+
+#include "engine/box.hpp"
+#include "engine/system.hpp"
+#include "engine/types.hpp"
+
+namespace vimd {
+
+class Constraints {
+ public:
+  Constraints() = default;
+  Constraints(std::vector<Constraint> list, int n_atoms, Box box);
+  ~Constraints();
+  Constraints(Constraints&&) noexcept;
+  Constraints& operator=(Constraints&&) noexcept;
+
+  int size() const { return static_cast<int>(list_.size()); }
+  bool empty() const { return list_.empty(); }
+  const std::vector<Constraint>& list() const { return list_; }
+  const Box& box() const { return box_; }
+
+  // r_a = q_i − q_j (minimum image), one column per constraint.
+  void vectors(const Coords& q, Coords& r) const;
+  // g_a = ½(|r_a|² − d_a²)
+  void residuals(const Coords& q, Eigen::VectorXd& g) const;
+  // max_a | |r_a| − d_a | / d_a
+  double max_relative_deviation(const Coords& q) const;
+  // max_a |r_a·(v_i − v_j)| / (d_a · max(1, |v_i − v_j|)): relative velocity-constraint residual.
+  double max_velocity_residual(const Coords& q, const Coords& v) const;
+
+  // out_a = r_a(q)·(u_i − u_j)
+  void apply_G(const Coords& q, const Coords& u, Eigen::VectorXd& out) const;
+  // out += G(q)ᵀ λ, scaled per atom by w when w is non-empty (out += W Gᵀλ)
+  void add_GT(const Coords& q, const Eigen::VectorXd& lambda, Coords& out,
+              const Eigen::VectorXd& w = Eigen::VectorXd()) const;
+  // out += Σ_a c_a H_a y, i.e. c_a (y_i − y_j) at i and −c_a (y_i − y_j) at j (W-scaled if w given)
+  void add_H(const Eigen::VectorXd& c, const Coords& y, Coords& out,
+             const Eigen::VectorXd& w = Eigen::VectorXd()) const;
+
+  // S = G(q_left) diag(w) G(q_right)ᵀ with w per atom (inverse masses, or ones), factorised
+  // once per coupled cluster of constraints. Reusable storage: factorize into the same object.
+  class Factorization {
+   public:
+    Factorization();
+    ~Factorization();
+    Factorization(Factorization&&) noexcept;
+    Factorization& operator=(Factorization&&) noexcept;
+    // rhs ← S⁻¹ rhs
+    void solve(Eigen::VectorXd& rhs) const;
+
+   private:
+    friend class Constraints;
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+  };
+  void factorize(const Coords& q_left, const Coords& q_right, const Eigen::VectorXd& w, Factorization& out) const;
+
+  // SHAKE/RATTLE position stage: q ← q + diag(w) G(q_ref)ᵀ λ with λ chosen so that every
+  // constraint holds to |g_a| ≤ tolerance·d_a². Returns the iterations taken; throws
+  // ConvergenceError(step, iterations, worst residual, worst constraint) when it cannot.
+  // lambda_out (optional) receives the accumulated multipliers.
+  int solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance, long step,
+                      int max_iterations = 500, Eigen::VectorXd* lambda_out = nullptr) const;
+  // v ← v − diag(w) Gᵀ S⁻¹ G v at q: the W-orthogonal projection onto the tangent space
+  // (the RATTLE velocity stage when w = M⁻¹). mu_out (optional) receives the multipliers.
+  void project_velocities(const Coords& q, Coords& v, const Eigen::VectorXd& w,
+                          Eigen::VectorXd* mu_out = nullptr) const;
+
+  // Clusters of coupled constraints (connected components), as constraint indices.
+  const std::vector<std::vector<int>>& clusters() const { return clusters_; }
+
+ private:
+  std::vector<Constraint> list_;
+  int n_atoms_ = 0;
+  Box box_;
+  std::vector<std::vector<int>> clusters_;
+};
+
+}  // namespace vimd

@@ -1,0 +1,43 @@
+#include "engine/force_field.hpp"
+
+namespace vimd {
+
+void ForceField::add(std::unique_ptr<ForceTerm> term) {
+  auto names = term->energy_names();
+  name_counts_.push_back(names.size());
+  names_.insert(names_.end(), names.begin(), names.end());
+  terms_.push_back(std::move(term));
+}
+
+void ForceField::compute(const Coords& q, Forces& out) {
+  out.f.setZero(3, q.cols());
+  out.terms.assign(names_.size(), 0.0);
+  std::size_t offset = 0;
+  for (std::size_t k = 0; k < terms_.size(); ++k) {
+    auto& t = terms_[k];
+    const std::size_t n = name_counts_[k];
+    t->prepare(q);
+    t->add_forces(q, out.f, std::span<double>(out.terms).subspan(offset, n));
+    offset += n;
+  }
+  out.potential = 0;
+  for (double e : out.terms) out.potential += e;
+  ++force_evaluations_;
+}
+
+void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+  out.setZero(3, q.cols());
+  for (auto& t : terms_) {
+    t->prepare(q);
+    t->add_hessian_vector(q, u, out);
+  }
+  ++hessian_evaluations_;
+}
+
+long ForceField::neighbor_rebuilds() const {
+  long n = 0;
+  for (const auto& t : terms_) n += t->rebuilds();
+  return n;
+}
+
+}  // namespace vimd

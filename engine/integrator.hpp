@@ -1,0 +1,44 @@
+#pragma once
+// One step of an integrator, never a run: the loop lives once, in Simulation.
+#include <string>
+#include <vector>
+
+#include "engine/constraints.hpp"
+#include "engine/force_field.hpp"
+#include "engine/state.hpp"
+#include "engine/system.hpp"
+
+namespace vimd {
+
+struct Problem {
+  const System& system;
+  ForceField& force_field;
+  const Constraints& constraints;
+  Eigen::VectorXd inverse_mass;  // per atom, 1/amu
+};
+
+struct StepReport {
+  int iterations = 0;               // solver iterations (constraint or variational)
+  double residual = 0;              // final solver residual
+  std::vector<double> diagnostics;  // aligned with Integrator::diagnostic_names()
+};
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  virtual std::string name() const = 0;
+  // Called once before step 0 (constrain the start, compute forces, set up internal state).
+  // Must leave state.f / potential / energy_terms consistent with state.q.
+  virtual void init(Problem& problem, State& state) = 0;
+  // Advances state by one step of dt; leaves forces and energies consistent with the new q.
+  virtual StepReport step(Problem& problem, State& state) = 0;
+  // Kinetic energy to report for state (leap-frog integrators average half steps).
+  virtual double kinetic_energy(const Problem& problem, const State& state) const;
+  // Extra per-step columns for the energy output (e.g. iterations, Noether momentum).
+  virtual std::vector<std::string> diagnostic_names() const { return {}; }
+};
+
+// ½ Σ m v²
+double kinetic_energy(const Eigen::VectorXd& mass, const Coords& v);
+
+}  // namespace vimd
