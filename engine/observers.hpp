@@ -1,0 +1,114 @@
+#pragma once
+// What a run writes and shows: energy series (.xvg and .csv), the .trr trajectory, the final
+// .gro, a progress bar, and the end-of-run summary. Files are written under a ".partial" name
+// and renamed only when the run finishes, so a failed run leaves nothing posing as complete.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <vector>
+
+#include "engine/simulation.hpp"
+
+namespace vimd {
+
+class TrrWriter;
+
+// A file written as NAME.partial and renamed to NAME by commit().
+class PendingFile {
+ public:
+  explicit PendingFile(std::filesystem::path final_path);
+  const std::filesystem::path& partial_path() const { return partial_; }
+  const std::filesystem::path& final_path() const { return final_; }
+  void commit() const;
+
+ private:
+  std::filesystem::path final_, partial_;
+};
+
+class EnergyWriter : public Observer {
+ public:
+  EnergyWriter(const std::filesystem::path& dir, long every);
+  long every() const override { return every_; }
+  void begin(const RunInfo&) override;
+  void observe(const RunInfo&, const State&, const Sample&) override;
+  void finish(const RunInfo&, const State&, const RunTotals&) override;
+
+ private:
+  long every_;
+  PendingFile xvg_file_, csv_file_;
+  std::ofstream xvg_, csv_;
+};
+
+class TrajectoryWriter : public Observer {
+ public:
+  TrajectoryWriter(const std::filesystem::path& dir, long every);
+  ~TrajectoryWriter() override;
+  long every() const override { return every_; }
+  bool needs_sample() const override { return false; }
+  void begin(const RunInfo&) override;
+  void observe(const RunInfo&, const State&, const Sample&) override;
+  void finish(const RunInfo&, const State&, const RunTotals&) override;
+
+ private:
+  long every_;
+  PendingFile file_;
+  std::unique_ptr<TrrWriter> writer_;
+};
+
+// confout.gro at the end of a successful run.
+class FinalStructureWriter : public Observer {
+ public:
+  explicit FinalStructureWriter(const std::filesystem::path& dir) : path_(dir / "confout.gro") {}
+  long every() const override { return 0; }
+  bool needs_sample() const override { return false; }
+  void observe(const RunInfo&, const State&, const Sample&) override {}
+  void finish(const RunInfo&, const State&, const RunTotals&) override;
+
+ private:
+  std::filesystem::path path_;
+};
+
+// A bar with ETA and ns/day on a terminal; a plain line every 10% otherwise.
+class ProgressReporter : public Observer {
+ public:
+  explicit ProgressReporter(std::FILE* out);
+  long every() const override { return 1; }
+  bool needs_sample() const override { return false; }
+  void begin(const RunInfo&) override;
+  void observe(const RunInfo&, const State&, const Sample&) override;
+  void finish(const RunInfo&, const State&, const RunTotals&) override;
+
+ private:
+  std::FILE* out_;
+  bool terminal_;
+  std::chrono::steady_clock::time_point start_, last_print_;
+  int last_decile_ = -1;
+};
+
+// Linear fit of the total energy against time.
+struct EnergyStatistics {
+  double drift = 0;                  // kJ/mol/ps per atom (slope of the fit / atoms)
+  double rms_fluctuation = 0;        // kJ/mol, RMS about the mean (as gmx energy reports it)
+  double detrended_fluctuation = 0;  // kJ/mol, RMS about the linear fit
+  double mean = 0;                   // kJ/mol
+};
+EnergyStatistics energy_statistics(const std::vector<double>& time, const std::vector<double>& total, int atoms);
+
+// Prints the end-of-run summary to `out` and writes summary.json into dir.
+class SummaryReporter : public Observer {
+ public:
+  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out);
+  long every() const override { return every_; }
+  void observe(const RunInfo&, const State&, const Sample&) override;
+  void finish(const RunInfo&, const State&, const RunTotals&) override;
+
+ private:
+  long every_;
+  std::filesystem::path dir_;
+  std::FILE* out_;
+  std::vector<double> time_, total_, temperature_, constraint_rms_;
+  std::vector<std::vector<double>> diagnostics_;
+};
+
+}  // namespace vimd
