@@ -1,0 +1,72 @@
+#include "integrators/constrained_dynamics.hpp"
+
+namespace vimd {
+
+ConstrainedDynamics::ConstrainedDynamics(Problem& problem) : problem_(problem) {
+  const int n = n_atoms();
+  const int d = problem_.constraints.size();
+  u_tangent_.setZero(3, n);
+  hessian_u_.setZero(3, n);
+  rhs_.setZero(d);
+  z_.setZero(d);
+  coefficients_.setZero(d);
+}
+
+void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q) {
+  const int n = n_atoms();
+  const Eigen::VectorXd& w = inverse_mass();
+  point.q = q;
+  point.v = v;
+  if (forces_at_q)
+    point.forces = *forces_at_q;
+  else
+    problem_.force_field.compute(q, point.forces);
+  const Coords& f = point.forces.f;
+  point.a.resize(3, n);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) point.a.col(i) = w[i] * f.col(i);
+
+  const Constraints& c = problem_.constraints;
+  if (!c.empty()) {
+    // S λ = −D²g(v,v) − G M⁻¹ f, with D²g_a(v,v) = |v_i − v_j|² (velocities: no minimum image).
+    c.apply_G(q, point.a, rhs_);
+    const auto& list = c.list();
+    const int d = c.size();
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < d; ++k) rhs_[k] = -rhs_[k] - (v.col(list[k].i) - v.col(list[k].j)).squaredNorm();
+    c.factorize(q, q, w, point.s_factor);
+    point.lambda = rhs_;
+    point.s_factor.solve(point.lambda);
+    c.add_GT(q, point.lambda, point.a, w);
+  } else {
+    point.lambda.resize(0);
+  }
+  point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
+}
+
+void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar) {
+  const int n = n_atoms();
+  const Eigen::VectorXd& w = inverse_mass();
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) u_tangent_.col(i) = w[i] * a_bar.col(i);
+
+  const Constraints& c = problem_.constraints;
+  if (!c.empty()) {
+    // ũ = u − M⁻¹Gᵀz is the M-orthogonal projection of u = M⁻¹ā onto ker G.
+    c.apply_G(point.q, u_tangent_, z_);
+    point.s_factor.solve(z_);
+    coefficients_ = -z_;
+    c.add_GT(point.q, coefficients_, u_tangent_, w);
+  }
+  problem_.force_field.hessian_vector(point.q, u_tangent_, hessian_u_);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
+  if (!c.empty()) {
+    c.add_H(point.lambda, u_tangent_, q_bar);
+    c.add_H(coefficients_, point.a, q_bar);
+    coefficients_ *= 2;
+    c.add_H(coefficients_, point.v, v_bar);
+  }
+}
+
+}  // namespace vimd

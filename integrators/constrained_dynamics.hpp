@@ -1,0 +1,46 @@
+#pragma once
+// The constrained vector field in index-1 form and its vector–Jacobian product (spec §1–2):
+//   S(q) = G M⁻¹ Gᵀ,  S λ = −D²g(v,v) − G M⁻¹ f,  A(q,v) = M⁻¹(f + Gᵀλ),  L(q,v) = ½vᵀMv − V(q).
+// Defined off the constraint manifold too, as Runge–Kutta stages need.
+#include "engine/constraints.hpp"
+#include "engine/force_field.hpp"
+#include "engine/integrator.hpp"
+
+namespace vimd {
+
+// Everything the reverse pass needs from one evaluation of the vector field.
+struct DynamicsPoint {
+  Coords q, v;
+  Forces forces;                        // f, V and its terms at q
+  Coords a;                             // A(q, v)
+  Eigen::VectorXd lambda;               // constraint multipliers
+  Constraints::Factorization s_factor;  // S(q) = G M⁻¹ Gᵀ
+  double lagrangian = 0;                // L(q, v)
+};
+
+class ConstrainedDynamics {
+ public:
+  explicit ConstrainedDynamics(Problem& problem);
+
+  // Evaluates the field at (q, v). `forces_at_q`, when given, must be the forces at exactly this q
+  // and saves the force evaluation.
+  void evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q = nullptr);
+
+  // q_bar += ā·∂A/∂q and v_bar += ā·∂A/∂v at `point`: with u = M⁻¹ā, z = S⁻¹Gu, ũ = u − M⁻¹Gᵀz,
+  //   ā·∂A/∂q = −∇²V ũ + Σ_a (λ_a H_a ũ − z_a H_a A),   ā·∂A/∂v = −2 Σ_a z_a H_a v.
+  void add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar);
+
+  Problem& problem() { return problem_; }
+  const Constraints& constraints() const { return problem_.constraints; }
+  const Eigen::VectorXd& mass() const { return problem_.system.mass; }
+  const Eigen::VectorXd& inverse_mass() const { return problem_.inverse_mass; }
+  int n_atoms() const { return static_cast<int>(problem_.inverse_mass.size()); }
+
+ private:
+  Problem& problem_;
+  // Scratch, sized once, so evaluations do not allocate.
+  Coords u_tangent_, hessian_u_;
+  Eigen::VectorXd rhs_, z_, coefficients_;
+};
+
+}  // namespace vimd

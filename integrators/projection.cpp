@@ -1,0 +1,128 @@
+#include "integrators/projection.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+
+namespace {
+
+double max_abs(const Coords& u) {
+  const int n = static_cast<int>(u.cols());
+  double m = 0;
+#pragma omp parallel for schedule(static) reduction(max : m)
+  for (int i = 0; i < n; ++i) m = std::max(m, u.col(i).cwiseAbs().maxCoeff());
+  return m;
+}
+
+}  // namespace
+
+TangentProjector::TangentProjector(const Constraints& constraints, Eigen::VectorXd inverse_weights)
+    : constraints_(constraints), inverse_weights_(std::move(inverse_weights)) {}
+
+void TangentProjector::set_point(const Coords& q) {
+  q_ = q;
+  if (!constraints_.empty()) constraints_.factorize(q_, q_, inverse_weights_, factor_);
+}
+
+void TangentProjector::apply(Coords& u, Eigen::VectorXd* mu) {
+  if (constraints_.empty()) {
+    if (mu) mu->resize(0);
+    return;
+  }
+  constraints_.apply_G(q_, u, mu_);
+  factor_.solve(mu_);
+  if (mu) *mu = mu_;
+  mu_ = -mu_;
+  constraints_.add_GT(q_, mu_, u, inverse_weights_);
+}
+
+Projection::Projection(const Constraints& constraints, const Eigen::VectorXd& inverse_mass, const std::string& kind)
+    : constraints_(constraints) {
+  if (kind == "euclidean")
+    inverse_weights_ = Eigen::VectorXd::Ones(inverse_mass.size());
+  else if (kind == "mass")
+    inverse_weights_ = inverse_mass;
+  else
+    throw InputError("[integrator]", 0, "projection must be \"euclidean\" or \"mass\", not \"" + kind + "\"");
+  length_scale_ = std::numeric_limits<double>::infinity();
+  for (const auto& c : constraints.list()) length_scale_ = std::min(length_scale_, c.length);
+}
+
+void Projection::project(const Coords& y, ProjectedPoint& out, long step) {
+  constexpr int kMaxIterations = 50;
+  out.x = y;
+  out.iterations = 0;
+  const int d = constraints_.size();
+  out.theta.setZero(d);
+  if (d == 0) return;
+  const int n = static_cast<int>(y.cols());
+  const Eigen::VectorXd& w = inverse_weights_;
+  // Converged once the update is at the level where rounding in the positions dominates.
+  const double tolerance = 1e-13 * length_scale_ + 8 * std::numeric_limits<double>::epsilon() * max_abs(y);
+  r1_.resize(3, n);
+  dx_.resize(3, n);
+  double change = std::numeric_limits<double>::infinity();
+  while (change > tolerance) {
+    if (out.iterations == kMaxIterations || (out.iterations > 0 && !std::isfinite(change)))
+      throw ConvergenceError("projection onto the constraints", step, out.iterations, change,
+                             "the step moved the positions too far from the constraint surface");
+    ++out.iterations;
+    // R1 = x + W⁻¹Gᵀθ − y,  R2 = g(x);  dθ = S⁻¹(R2 − G R1),  dx = −R1 − W⁻¹Gᵀdθ.
+    r1_ = out.x - y;
+    constraints_.add_GT(out.x, out.theta, r1_, w);
+    constraints_.residuals(out.x, g_);
+    constraints_.factorize(out.x, out.x, w, out.s_factor);
+    constraints_.apply_G(out.x, r1_, gr_);
+    dtheta_ = g_ - gr_;
+    out.s_factor.solve(dtheta_);
+    dx_ = -r1_;
+    gr_ = -dtheta_;
+    constraints_.add_GT(out.x, gr_, dx_, w);
+    out.x += dx_;
+    out.theta += dtheta_;
+    change = max_abs(dx_);
+  }
+}
+
+void Projection::pull_back(const ProjectedPoint& point, const Coords& p, Coords& p_hat, long step) {
+  constexpr int kMaxSweeps = 20;
+  p_hat = p;
+  const int d = constraints_.size();
+  if (d == 0) return;
+  const int n = static_cast<int>(p.cols());
+  const Eigen::VectorXd& w = inverse_weights_;
+  const Coords& x = point.x;
+  const double tolerance = 1e-14 * max_abs(p);
+  b_.setZero(d);
+  r1_.resize(3, n);
+  scaled_.resize(3, n);
+  for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+    // r1 = p − (I + Σθ_a H_a W⁻¹) p̂ − Gᵀb,  r2 = −G W⁻¹ p̂;
+    // correction from [[I, Gᵀ], [G W⁻¹, 0]]: db = S⁻¹(G W⁻¹ r1 − r2), dp = r1 − Gᵀ db.
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) scaled_.col(i) = w[i] * p_hat.col(i);
+    r1_ = p - p_hat;
+    gr_ = -point.theta;
+    constraints_.add_H(gr_, scaled_, r1_);
+    gr_ = -b_;
+    constraints_.add_GT(x, gr_, r1_);
+    constraints_.apply_G(x, scaled_, g_);  // −r2
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) scaled_.col(i) = w[i] * r1_.col(i);
+    constraints_.apply_G(x, scaled_, db_);
+    db_ += g_;
+    point.s_factor.solve(db_);
+    b_ += db_;
+    gr_ = -db_;
+    constraints_.add_GT(x, gr_, r1_);
+    p_hat += r1_;
+    if (max_abs(r1_) <= tolerance) return;
+  }
+  throw ConvergenceError("covector pull-back through the projection", step, kMaxSweeps, max_abs(r1_),
+                         "the projection multipliers are too large");
+}
+
+}  // namespace vimd
