@@ -1,0 +1,372 @@
+#include "engine/config.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+namespace fs = std::filesystem;
+
+namespace {
+
+// The accepted keys per table; anything else is an error with a suggestion.
+const std::map<std::string, std::vector<std::string>>& schema() {
+  static const std::map<std::string, std::vector<std::string>> tables = {
+      {"system", {"structure", "topology"}},
+      {"forcefield",
+       {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "epsilon_r", "epsilon_rf", "neighbor_skin"}},
+      {"integrator",
+       {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "method", "method_minus", "bias",
+        "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
+      {"integrator.tableau", {"a", "b", "c", "order"}},
+      {"output", {"dir", "trajectory_every", "energy_every"}},
+  };
+  return tables;
+}
+
+const std::vector<std::string> kIntegratorTypes = {"verlet", "shake", "rattle", "vi", "rk"};
+const std::vector<std::string> kVdwModifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
+const std::vector<std::string> kCoulombTypes = {"reaction-field", "cutoff", "none"};
+const std::vector<std::string> kProjections = {"euclidean", "mass"};
+const std::vector<std::string> kAccelerations = {"none", "anderson"};
+
+std::size_t levenshtein(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// The closest choice, when it is close enough to be a plausible typo.
+std::optional<std::string> nearest(const std::string& word, const std::vector<std::string>& choices) {
+  const auto best = *std::min_element(choices.begin(), choices.end(), [&](const auto& x, const auto& y) {
+    return levenshtein(word, x) < levenshtein(word, y);
+  });
+  if (levenshtein(word, best) > std::max<std::size_t>(2, word.size() / 3)) return std::nullopt;
+  return best;
+}
+
+std::string format_number(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+std::string join(const std::vector<std::string>& words) {
+  std::string out;
+  for (const auto& w : words) out += (out.empty() ? "" : ", ") + w;
+  return out;
+}
+
+std::string type_name(const toml::node& node) {
+  switch (node.type()) {
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a floating-point number";
+    case toml::node_type::boolean: return "a boolean";
+    case toml::node_type::table: return "a table";
+    case toml::node_type::array: return "an array";
+    default: return "a date/time";
+  }
+}
+
+class ConfigReader {
+ public:
+  explicit ConfigReader(const fs::path& file) : file_(file), dir_(file.parent_path()) {}
+
+  RunConfig read() {
+    toml::table root;
+    try {
+      root = toml::parse_file(file_.string());
+    } catch (const toml::parse_error& e) {
+      throw InputError(file_.string(), static_cast<int>(e.source().begin.line),
+                       "TOML syntax error: " + std::string(e.description()));
+    }
+    RunConfig config;
+    config.file = file_;
+    for (auto&& [key, node] : root) {
+      const std::string name(key.str());
+      if (!schema().count(name) || name.find('.') != std::string::npos) unknown_top_level(name, key, node);
+      if (!node.is_table()) fail(key, "[" + name + "] must be a table, found " + type_name(node));
+    }
+    const toml::table* system = root["system"].as_table();
+    if (!system) throw InputError(file_.string(), 0, "missing [system] table with structure and topology");
+    read_system(*system, config);
+    if (const auto* t = root["forcefield"].as_table()) read_forcefield(*t, config.forcefield);
+    if (const auto* t = root["integrator"].as_table()) read_integrator(*t, config.integrator);
+    if (const auto* t = root["output"].as_table()) read_output(*t, config.output);
+    config.output.dir = resolve(config.output.dir);
+    return config;
+  }
+
+ private:
+  [[noreturn]] void fail(const toml::key& key, const std::string& problem) const {
+    throw InputError(file_.string(), static_cast<int>(key.source().begin.line), problem);
+  }
+  [[noreturn]] void fail(const toml::node& node, const std::string& problem) const {
+    throw InputError(file_.string(), static_cast<int>(node.source().begin.line), problem);
+  }
+
+  [[noreturn]] void unknown_top_level(const std::string& name, const toml::key& key, const toml::node& node) const {
+    for (const auto& [table, keys] : schema())
+      if (std::find(keys.begin(), keys.end(), name) != keys.end())
+        fail(key, "'" + name + "' must be inside [" + table + "]");
+    std::vector<std::string> tables;
+    for (const auto& [table, keys] : schema())
+      if (table.find('.') == std::string::npos) tables.push_back(table);
+    const auto suggestion = nearest(name, tables);
+    fail(key, std::string(node.is_table() ? "unknown table [" : "unknown key '") + name +
+                  (node.is_table() ? "]" : "'") + (suggestion ? "; did you mean [" + *suggestion + "]?" : "") +
+                  " (tables: " + join(tables) + ")");
+  }
+
+  // Every key of `table` must be in the schema of `table_name`.
+  void check_keys(const toml::table& table, const std::string& table_name) const {
+    const auto& allowed = schema().at(table_name);
+    for (auto&& [key, node] : table) {
+      const std::string name(key.str());
+      if (std::find(allowed.begin(), allowed.end(), name) != allowed.end()) continue;
+      std::string hint;
+      for (const auto& [other, keys] : schema())
+        if (other != table_name && std::find(keys.begin(), keys.end(), name) != keys.end())
+          hint = " ('" + name + "' belongs in [" + other + "])";
+      const auto suggestion = nearest(name, allowed);
+      fail(key, "unknown key '" + name + "' in [" + table_name + "]" +
+                    (suggestion ? "; did you mean '" + *suggestion + "'?" : "") + hint + " (valid keys: " +
+                    join(allowed) + ")");
+    }
+  }
+
+  double number(const toml::node& node, const std::string& what) const {
+    if (const auto* v = node.as_floating_point()) {
+      if (!std::isfinite(v->get())) fail(node, what + " must be a finite number");
+      return v->get();
+    }
+    if (const auto* v = node.as_integer()) return static_cast<double>(v->get());
+    fail(node, what + " must be a number, found " + type_name(node));
+  }
+  long integer(const toml::node& node, const std::string& what) const {
+    if (const auto* v = node.as_integer()) return static_cast<long>(v->get());
+    // 1e5 is a float in TOML; accept it when it is a whole number.
+    if (const auto* v = node.as_floating_point())
+      if (std::floor(v->get()) == v->get() && std::abs(v->get()) < 9e18) return static_cast<long>(v->get());
+    fail(node, what + " must be an integer, found " + type_name(node));
+  }
+  std::string string(const toml::node& node, const std::string& what) const {
+    if (const auto* v = node.as_string()) return v->get();
+    fail(node, what + " must be a string, found " + type_name(node));
+  }
+  std::string choice(const toml::node& node, const std::string& what, const std::vector<std::string>& choices) const {
+    const std::string value = string(node, what);
+    if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
+      const auto suggestion = nearest(value, choices);
+      fail(node, what + " = \"" + value + "\" is not supported" +
+                     (suggestion ? "; did you mean \"" + *suggestion + "\"?" : "") + " (choices: " + join(choices) + ")");
+    }
+    return value;
+  }
+  void require(bool ok, const toml::node& node, const std::string& problem) const {
+    if (!ok) fail(node, problem);
+  }
+  std::vector<double> numbers(const toml::node& node, const std::string& what) const {
+    const auto* array = node.as_array();
+    if (!array) fail(node, what + " must be an array of numbers, found " + type_name(node));
+    std::vector<double> values;
+    for (const auto& element : *array) values.push_back(number(element, what + " element"));
+    return values;
+  }
+
+  fs::path resolve(const fs::path& p) const { return p.is_relative() ? (dir_ / p).lexically_normal() : p; }
+
+  fs::path existing_file(const toml::node& node, const std::string& what) const {
+    const fs::path path = resolve(string(node, what));
+    std::error_code ec;
+    require(fs::is_regular_file(path, ec), node, what + " file " + path.string() + " does not exist");
+    return path;
+  }
+
+  void read_system(const toml::table& t, RunConfig& config) const {
+    check_keys(t, "system");
+    const auto* structure = t.get("structure");
+    const auto* topology = t.get("topology");
+    const int line = static_cast<int>(t.source().begin.line);
+    if (!structure) throw InputError(file_.string(), line, "[system] needs structure = \"file.gro\"");
+    if (!topology) throw InputError(file_.string(), line, "[system] needs topology = \"file.top\"");
+    config.structure = existing_file(*structure, "[system] structure");
+    config.topology = existing_file(*topology, "[system] topology");
+  }
+
+  void read_forcefield(const toml::table& t, ForceFieldConfig& ff) const {
+    check_keys(t, "forcefield");
+    if (const auto* n = t.get("cutoff")) {
+      ff.cutoff = number(*n, "cutoff");
+      require(ff.cutoff > 0, *n, "cutoff must be positive (nm)");
+    }
+    if (const auto* n = t.get("vdw_modifier")) ff.vdw_modifier = choice(*n, "vdw_modifier", kVdwModifiers);
+    if (const auto* n = t.get("vdw_switch")) {
+      ff.vdw_switch = number(*n, "vdw_switch");
+      require(ff.vdw_switch >= 0, *n, "vdw_switch must not be negative (nm)");
+    }
+    if (ff.vdw_modifier == "force-switch" || ff.vdw_modifier == "potential-switch") {
+      const toml::node* where = t.get("vdw_switch") ? t.get("vdw_switch") : t.get("vdw_modifier");
+      require(ff.vdw_switch < ff.cutoff, *where,
+              "vdw_switch (" + format_number(ff.vdw_switch) + " nm) must be smaller than cutoff (" +
+                  format_number(ff.cutoff) + " nm) for " + ff.vdw_modifier);
+    }
+    if (const auto* n = t.get("coulomb")) ff.coulomb = choice(*n, "coulomb", kCoulombTypes);
+    if (const auto* n = t.get("epsilon_r")) {
+      ff.epsilon_r = number(*n, "epsilon_r");
+      require(ff.epsilon_r > 0, *n, "epsilon_r must be positive");
+    }
+    if (const auto* n = t.get("epsilon_rf")) {
+      ff.epsilon_rf = number(*n, "epsilon_rf");
+      require(ff.epsilon_rf >= 0, *n, "epsilon_rf must not be negative (0 means infinity)");
+    }
+    if (const auto* n = t.get("neighbor_skin")) {
+      ff.neighbor_skin = number(*n, "neighbor_skin");
+      require(ff.neighbor_skin >= 0, *n, "neighbor_skin must not be negative (nm)");
+    }
+  }
+
+  void read_integrator(const toml::table& t, IntegratorConfig& in) const {
+    check_keys(t, "integrator");
+    if (const auto* n = t.get("type")) in.type = choice(*n, "type", kIntegratorTypes);
+    if (const auto* n = t.get("dt")) {
+      in.dt = number(*n, "dt");
+      require(in.dt > 0, *n, "dt must be positive (ps)");
+    }
+    if (const auto* n = t.get("steps")) {
+      in.steps = integer(*n, "steps");
+      require(in.steps >= 0, *n, "steps must not be negative");
+    }
+    if (const auto* n = t.get("constraint_tolerance")) {
+      in.constraint_tolerance = number(*n, "constraint_tolerance");
+      require(in.constraint_tolerance > 0 && in.constraint_tolerance < 1, *n,
+              "constraint_tolerance is relative and must be in (0, 1)");
+    }
+    if (const auto* n = t.get("temperature")) {
+      in.temperature = number(*n, "temperature");
+      require(*in.temperature >= 0, *n, "temperature must not be negative (K)");
+    }
+    if (const auto* n = t.get("seed")) {
+      const long seed = integer(*n, "seed");
+      require(seed >= 0, *n, "seed must not be negative");
+      in.seed = static_cast<std::uint64_t>(seed);
+    }
+    if (const auto* n = t.get("method")) {
+      in.method = string(*n, "method");
+      require(!in.method.empty(), *n, "method must not be empty");
+    }
+    if (const auto* n = t.get("method_minus")) {
+      in.method_minus = string(*n, "method_minus");
+      require(!in.method_minus->empty(), *n, "method_minus must not be empty");
+    }
+    if (const auto* n = t.get("bias")) {
+      const auto bias = numbers(*n, "bias");
+      require(bias.size() == 2, *n, "bias must have two numbers [alpha_minus, alpha_plus]");
+      in.bias = {bias[0], bias[1]};
+    }
+    if (const auto* n = t.get("projection")) in.projection = choice(*n, "projection", kProjections);
+    if (const auto* n = t.get("solver_tolerance")) {
+      in.solver_tolerance = number(*n, "solver_tolerance");
+      require(*in.solver_tolerance > 0, *n, "solver_tolerance must be positive");
+    }
+    if (const auto* n = t.get("max_iterations")) {
+      const long iterations = integer(*n, "max_iterations");
+      require(iterations >= 1 && iterations <= 1000000, *n, "max_iterations must be between 1 and 1000000");
+      in.max_iterations = static_cast<int>(iterations);
+    }
+    if (const auto* n = t.get("acceleration")) in.acceleration = choice(*n, "acceleration", kAccelerations);
+    const auto* tableau = t.get("tableau");
+    if (tableau) {
+      const auto* table = tableau->as_table();
+      if (!table) fail(*tableau, "[integrator.tableau] must be a table, found " + type_name(*tableau));
+      in.tableau = read_tableau(*table);
+      const auto* method = t.get("method");
+      require(in.method == "user", method ? *method : *tableau,
+              "[integrator.tableau] is given, so method must be \"user\" (it is \"" + in.method + "\")");
+    } else if (in.method == "user") {
+      fail(*t.get("method"), "method = \"user\" needs an [integrator.tableau] table with a, b and order");
+    }
+  }
+
+  TableauConfig read_tableau(const toml::table& t) const {
+    check_keys(t, "integrator.tableau");
+    TableauConfig tableau;
+    tableau.line = static_cast<int>(t.source().begin.line);
+    const auto missing = [&](const char* key) {
+      throw InputError(file_.string(), tableau.line, std::string("[integrator.tableau] needs '") + key + "'");
+    };
+    const auto* a = t.get("a");
+    const auto* b = t.get("b");
+    const auto* order = t.get("order");
+    if (!a) missing("a");
+    if (!b) missing("b");
+    if (!order) missing("order");
+    const auto* rows = a->as_array();
+    if (!rows || rows->empty()) fail(*a, "tableau a must be a non-empty array of rows (arrays of numbers)");
+    for (const auto& row : *rows) tableau.a.push_back(numbers(row, "tableau a row"));
+    const std::size_t stages = tableau.a.size();
+    for (const auto& row : tableau.a)
+      require(row.size() == stages, *a, "tableau a must be square: " + std::to_string(stages) + " rows but a row has " +
+                                            std::to_string(row.size()) + " entries");
+    tableau.b = numbers(*b, "tableau b");
+    require(tableau.b.size() == stages, *b, "tableau b must have " + std::to_string(stages) + " entries (one per stage)");
+    if (const auto* c = t.get("c")) {
+      tableau.c = numbers(*c, "tableau c");
+      require(tableau.c.size() == stages, *c, "tableau c must have " + std::to_string(stages) + " entries");
+    } else {
+      // The usual convention c_i = Σ_j a_ij.
+      for (const auto& row : tableau.a) {
+        double sum = 0;
+        for (double x : row) sum += x;
+        tableau.c.push_back(sum);
+      }
+    }
+    const long stated = integer(*order, "tableau order");
+    require(stated >= 1 && stated <= 20, *order, "tableau order must be between 1 and 20");
+    tableau.order = static_cast<int>(stated);
+    return tableau;
+  }
+
+  void read_output(const toml::table& t, OutputConfig& out) const {
+    check_keys(t, "output");
+    if (const auto* n = t.get("dir")) {
+      out.dir = string(*n, "dir");
+      require(!out.dir.empty(), *n, "dir must not be empty");
+    }
+    if (const auto* n = t.get("trajectory_every")) {
+      out.trajectory_every = integer(*n, "trajectory_every");
+      require(out.trajectory_every >= 0, *n, "trajectory_every must not be negative (0 disables the trajectory)");
+    }
+    if (const auto* n = t.get("energy_every")) {
+      out.energy_every = integer(*n, "energy_every");
+      require(out.energy_every >= 0, *n, "energy_every must not be negative (0 disables the energy output)");
+    }
+  }
+
+  fs::path file_, dir_;
+};
+
+}  // namespace
+
+RunConfig read_config(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), 0, "cannot open config file");
+  return ConfigReader(file).read();
+}
+
+}  // namespace vimd

@@ -1,0 +1,36 @@
+#pragma once
+// GROMACS .gro structures: reader for the fixed format and its variable-precision variant
+// (gmx trjconv -ndec N), writer for the standard fixed format. Rectangular boxes only.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/box.hpp"
+#include "engine/system.hpp"
+#include "engine/types.hpp"
+
+namespace vimd {
+
+struct GroFrame {
+  std::string title;
+  std::vector<std::string> residue_names, atom_names;
+  std::vector<int> residue_numbers;
+  Coords x;                // nm
+  std::optional<Coords> v; // nm/ps, when every atom line carries velocities
+  Box box;
+};
+
+// Reads the first frame. Throws InputError (file, line, problem) on malformed input.
+GroFrame read_gro(const std::filesystem::path& file);
+
+// Writes positions at %8.3f and velocities (when v is given) at %8.4f, as GROMACS does; residue and
+// atom numbers wrap modulo 100000. The file appears only when complete (written aside, then renamed).
+void write_gro(const std::filesystem::path& file, const std::string& title, const System& system, const Coords& x,
+               const Coords* v, const Box& box);
+
+// Takes the box from the structure and checks that it matches the topology atom by atom (count and
+// names, as grompp does); a mismatch is an InputError at the structure's offending line.
+void apply_structure(System& system, const GroFrame& frame, const std::filesystem::path& gro_file);
+
+}  // namespace vimd

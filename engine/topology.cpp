@@ -1,0 +1,947 @@
+#include "engine/topology.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <tuple>
+#include <unordered_map>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Where {
+  std::string file;
+  int line = 0;
+  std::string str() const { return file + ":" + std::to_string(line); }
+};
+
+[[noreturn]] void fail(const Where& where, const std::string& problem) {
+  throw InputError(where.file, where.line, problem);
+}
+
+std::string_view trim(std::string_view s) {
+  const auto first = s.find_first_not_of(" \t\r\n\f\v");
+  if (first == std::string_view::npos) return {};
+  const auto last = s.find_last_not_of(" \t\r\n\f\v");
+  return s.substr(first, last - first + 1);
+}
+
+std::vector<std::string> split_words(std::string_view s) {
+  std::vector<std::string> words;
+  std::size_t pos = 0;
+  while ((pos = s.find_first_not_of(" \t\r\n\f\v", pos)) != std::string_view::npos) {
+    const auto end = std::min(s.find_first_of(" \t\r\n\f\v", pos), s.size());
+    words.emplace_back(s.substr(pos, end - pos));
+    pos = end;
+  }
+  return words;
+}
+
+bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Preprocessor: yields logical lines (continuations joined, comments stripped, macros substituted)
+// of the active #ifdef branches, each tagged with the file and line it started on.
+
+struct LogicalLine {
+  std::string text;
+  Where where;
+};
+
+class Preprocessor {
+ public:
+  Preprocessor(const fs::path& top, std::vector<fs::path> library_dirs) : library_dirs_(std::move(library_dirs)) {
+    open(top, nullptr);
+  }
+
+  bool next(LogicalLine& out) {
+    while (!files_.empty()) {
+      OpenFile& file = *files_.back();
+      std::string text;
+      int first_line = 0;
+      if (!read_logical(file, text, first_line)) {
+        if (!file.conditionals.empty())
+          fail(file.conditionals.back().where, "#ifdef/#ifndef is not closed by an #endif in the same file");
+        files_.pop_back();
+        continue;
+      }
+      Where where{file.name, first_line};
+      if (const auto semicolon = text.find(';'); semicolon != std::string::npos) text.erase(semicolon);
+      const std::string_view line = trim(text);
+      if (line.empty()) continue;
+      if (line.front() == '#') {
+        directive(file, line, where);  // may push an included file; `file` is not used afterwards
+        continue;
+      }
+      if (!active(file)) continue;
+      out.text = substitute(line);
+      out.where = std::move(where);
+      return true;
+    }
+    return false;
+  }
+
+ private:
+  struct Conditional {
+    bool condition;       // the #ifdef/#ifndef test, inverted by #else
+    bool parent_active;   // whether the enclosing region is read at all
+    bool seen_else = false;
+    Where where;
+  };
+  struct OpenFile {
+    std::ifstream in;
+    fs::path path;
+    std::string name;
+    int line = 0;
+    std::vector<Conditional> conditionals;  // #ifdef nesting must close within one file
+  };
+
+  static bool active(const OpenFile& file) {
+    return file.conditionals.empty() || (file.conditionals.back().parent_active && file.conditionals.back().condition);
+  }
+
+  void open(const fs::path& path, const Where* included_from) {
+    if (files_.size() >= 64) fail(*included_from, "#include nested more than 64 deep (recursive include?)");
+    auto file = std::make_unique<OpenFile>();
+    file->path = path;
+    file->name = path.string();
+    file->in.open(path);
+    if (!file->in) {
+      if (included_from) fail(*included_from, "cannot open included file " + path.string());
+      throw InputError(path.string(), 0, "cannot open topology file");
+    }
+    files_.push_back(std::move(file));
+  }
+
+  static bool read_logical(OpenFile& file, std::string& text, int& first_line) {
+    std::string physical;
+    if (!std::getline(file.in, physical)) return false;
+    first_line = ++file.line;
+    text = physical;
+    // A trailing backslash continues the line on the next one.
+    while (true) {
+      const auto end = text.find_last_not_of(" \t\r");
+      if (end == std::string::npos || text[end] != '\\') break;
+      text.erase(end);
+      if (!std::getline(file.in, physical)) break;
+      ++file.line;
+      text += ' ';
+      text += physical;
+    }
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    return true;
+  }
+
+  void directive(OpenFile& file, std::string_view line, const Where& where) {
+    line.remove_prefix(1);
+    line = trim(line);
+    std::size_t name_end = 0;
+    while (name_end < line.size() && std::isalpha(static_cast<unsigned char>(line[name_end]))) ++name_end;
+    const std::string name(line.substr(0, name_end));
+    const std::string_view rest = trim(line.substr(name_end));
+
+    if (name == "ifdef" || name == "ifndef") {
+      const auto words = split_words(rest);
+      if (words.size() != 1) fail(where, "#" + name + " needs exactly one macro name");
+      const bool defined = defines_.count(words[0]) > 0;
+      file.conditionals.push_back({defined == (name == "ifdef"), active(file), false, where});
+      return;
+    }
+    if (name == "else" || name == "endif") {
+      if (file.conditionals.empty()) fail(where, "#" + name + " without a matching #ifdef/#ifndef");
+      if (name == "endif") {
+        file.conditionals.pop_back();
+        return;
+      }
+      Conditional& c = file.conditionals.back();
+      if (c.seen_else) fail(where, "second #else for the #ifdef at " + c.where.str());
+      c.seen_else = true;
+      c.condition = !c.condition;
+      return;
+    }
+    if (!active(file)) return;  // other directives in a skipped branch are not evaluated
+
+    if (name == "include") {
+      const char close = rest.empty() ? '\0' : (rest.front() == '"' ? '"' : rest.front() == '<' ? '>' : '\0');
+      const auto end = close ? rest.find(close, 1) : std::string_view::npos;
+      if (end == std::string_view::npos || end == 1)
+        fail(where, "#include needs a file name in quotes, e.g. #include \"forcefield.itp\"");
+      open(resolve_include(std::string(rest.substr(1, end - 1)), file.path, where), &where);
+      return;
+    }
+    if (name == "define") {
+      std::size_t macro_end = 0;
+      while (macro_end < rest.size() && is_word_char(rest[macro_end])) ++macro_end;
+      if (macro_end == 0) fail(where, "#define needs a macro name");
+      defines_[std::string(rest.substr(0, macro_end))] = std::string(trim(rest.substr(macro_end)));
+      return;
+    }
+    if (name == "undef") {
+      const auto words = split_words(rest);
+      if (words.size() != 1) fail(where, "#undef needs exactly one macro name");
+      defines_.erase(words[0]);
+      return;
+    }
+    fail(where, "unsupported preprocessor directive '#" + name +
+                    "' (supported: #include, #define, #undef, #ifdef, #ifndef, #else, #endif)");
+  }
+
+  fs::path resolve_include(const std::string& name, const fs::path& including, const Where& where) const {
+    const fs::path requested(name);
+    std::vector<fs::path> candidates;
+    if (requested.is_absolute()) {
+      candidates.push_back(requested);
+    } else {
+      candidates.push_back(including.parent_path() / requested);
+      for (const auto& dir : library_dirs_) candidates.push_back(dir / requested);
+    }
+    std::string searched;
+    for (const auto& candidate : candidates) {
+      std::error_code ec;
+      if (fs::is_regular_file(candidate, ec)) return candidate.lexically_normal();
+      searched += (searched.empty() ? "" : ", ") + candidate.parent_path().string();
+    }
+    fail(where, "cannot find #include \"" + name + "\" (searched " + searched + "; set GMXLIB to add a directory)");
+  }
+
+  // GROMACS replaces every whole word that names a macro with a non-empty value.
+  std::string substitute(std::string_view line) const {
+    std::string out;
+    out.reserve(line.size());
+    std::size_t pos = 0;
+    while (pos < line.size()) {
+      if (!is_word_char(line[pos])) {
+        out += line[pos++];
+        continue;
+      }
+      std::size_t end = pos;
+      while (end < line.size() && is_word_char(line[end])) ++end;
+      const std::string word(line.substr(pos, end - pos));
+      const auto it = defines_.find(word);
+      out += (it != defines_.end() && !it->second.empty()) ? it->second : word;
+      pos = end;
+    }
+    return out;
+  }
+
+  std::vector<std::unique_ptr<OpenFile>> files_;
+  std::unordered_map<std::string, std::string> defines_;
+  std::vector<fs::path> library_dirs_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Topology model.
+
+struct AtomType {
+  std::string name, bonded_name;
+  double mass, charge;
+  char ptype;
+  double v, w;  // c6, c12 (comb-rule 1) or sigma, epsilon (comb-rules 2, 3)
+  Where where;
+};
+
+struct MoleculeAtom {
+  int type;
+  int residue_number;
+  std::string residue_name, name;
+  double charge, mass;
+};
+
+struct Unsupported {
+  Where where;
+  std::string what;
+};
+
+struct MoleculeType {
+  std::string name;
+  int nrexcl = 0;
+  Where where;
+  std::vector<MoleculeAtom> atoms;
+  std::vector<Bond> bonds;
+  std::vector<Angle> angles;
+  std::vector<Constraint> constraints;
+  std::vector<std::pair<int, int>> chemical_bonds;  // the graph nrexcl counts along
+  std::vector<std::pair<int, int>> explicit_exclusions;
+  std::optional<Unsupported> unsupported;  // the first entry vimd cannot compute
+
+  void mark_unsupported(const Where& where, const std::string& what) {
+    if (!unsupported) unsupported = Unsupported{where, what};
+  }
+};
+
+struct MoleculeCount {
+  int type;
+  int count;
+};
+
+// Redefinitions with identical values are harmless; different values are an error (grompp
+// treats them as a warning, which is fatal without -maxwarn).
+template <class Key, class Params>
+void define_parameters(std::map<Key, std::pair<Params, Where>>& table, const Key& key, const Params& params,
+                       const Where& where, const std::string& what) {
+  const auto [it, inserted] = table.try_emplace(key, params, where);
+  if (!inserted && it->second.first != params)
+    fail(where, what + " redefined with different parameters (first defined at " + it->second.second.str() + ")");
+}
+
+enum class Section {
+  Defaults,
+  AtomTypes,
+  NonbondParams,
+  BondTypes,
+  ConstraintTypes,
+  AngleTypes,
+  IgnoredTypes,
+  MoleculeType,
+  Atoms,
+  Bonds,
+  Angles,
+  Constraints,
+  Settles,
+  Exclusions,
+  UnsupportedInteraction,
+  System,
+  Molecules,
+};
+
+struct SectionInfo {
+  Section section;
+  const char* unsupported_what = "";
+};
+
+const std::map<std::string, SectionInfo>& section_table() {
+  static const std::map<std::string, SectionInfo> table = {
+      {"defaults", {Section::Defaults}},
+      {"atomtypes", {Section::AtomTypes}},
+      {"nonbond_params", {Section::NonbondParams}},
+      {"bondtypes", {Section::BondTypes}},
+      {"constrainttypes", {Section::ConstraintTypes}},
+      {"angletypes", {Section::AngleTypes}},
+      // Parameter tables only matter through interactions that use them, which are refused.
+      {"pairtypes", {Section::IgnoredTypes}},
+      {"dihedraltypes", {Section::IgnoredTypes}},
+      {"cmaptypes", {Section::IgnoredTypes}},
+      {"implicit_genborn_params", {Section::IgnoredTypes}},
+      {"implicit_surface_params", {Section::IgnoredTypes}},
+      {"moleculetype", {Section::MoleculeType}},
+      {"atoms", {Section::Atoms}},
+      {"bonds", {Section::Bonds}},
+      {"angles", {Section::Angles}},
+      {"constraints", {Section::Constraints}},
+      {"settles", {Section::Settles}},
+      {"exclusions", {Section::Exclusions}},
+      {"pairs", {Section::UnsupportedInteraction, "1-4 pair interactions ([ pairs ])"}},
+      {"pairs_nb", {Section::UnsupportedInteraction, "nonbonded pair interactions ([ pairs_nb ])"}},
+      {"dihedrals", {Section::UnsupportedInteraction, "dihedrals ([ dihedrals ])"}},
+      {"cmap", {Section::UnsupportedInteraction, "CMAP corrections ([ cmap ])"}},
+      {"position_restraints", {Section::UnsupportedInteraction, "position restraints ([ position_restraints ])"}},
+      {"distance_restraints", {Section::UnsupportedInteraction, "distance restraints ([ distance_restraints ])"}},
+      {"dihedral_restraints", {Section::UnsupportedInteraction, "dihedral restraints ([ dihedral_restraints ])"}},
+      {"orientation_restraints",
+       {Section::UnsupportedInteraction, "orientation restraints ([ orientation_restraints ])"}},
+      {"angle_restraints", {Section::UnsupportedInteraction, "angle restraints ([ angle_restraints ])"}},
+      {"angle_restraints_z", {Section::UnsupportedInteraction, "angle restraints ([ angle_restraints_z ])"}},
+      {"polarization", {Section::UnsupportedInteraction, "polarization ([ polarization ])"}},
+      {"water_polarization", {Section::UnsupportedInteraction, "water polarization ([ water_polarization ])"}},
+      {"thole_polarization", {Section::UnsupportedInteraction, "Thole polarization ([ thole_polarization ])"}},
+      {"virtual_sites1", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites1 ])"}},
+      {"virtual_sites2", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites2 ])"}},
+      {"virtual_sites3", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites3 ])"}},
+      {"virtual_sites4", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites4 ])"}},
+      {"virtual_sitesn", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sitesn ])"}},
+      {"dummies2", {Section::UnsupportedInteraction, "virtual sites ([ dummies2 ])"}},
+      {"dummies3", {Section::UnsupportedInteraction, "virtual sites ([ dummies3 ])"}},
+      {"dummies4", {Section::UnsupportedInteraction, "virtual sites ([ dummies4 ])"}},
+      {"dummiesn", {Section::UnsupportedInteraction, "virtual sites ([ dummiesn ])"}},
+      {"system", {Section::System}},
+      {"molecules", {Section::Molecules}},
+  };
+  return table;
+}
+
+// One data line split into fields, with typed accessors whose errors name the column.
+class Fields {
+ public:
+  Fields(const LogicalLine& line, const char* section) : words_(split_words(line.text)), where_(line.where),
+                                                         section_(section) {}
+  std::size_t size() const { return words_.size(); }
+  const std::string& operator[](std::size_t k) const { return words_[k]; }
+  const Where& where() const { return where_; }
+
+  void require(std::size_t n, const char* layout) const {
+    if (words_.size() < n)
+      fail(where_, "[ " + section_ + " ] line has " + std::to_string(words_.size()) + " fields, expected at least " +
+                       std::to_string(n) + ": " + layout);
+  }
+  double number(std::size_t k, const char* what) const {
+    double value = 0;
+    const std::string& s = words_.at(k);
+    const char* begin = s.data() + (s.size() > 1 && s[0] == '+');  // from_chars rejects a leading '+'
+    const auto [end, ec] = std::from_chars(begin, s.data() + s.size(), value);
+    if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(value))
+      fail(where_, "[ " + section_ + " ] field " + std::to_string(k + 1) + " (" + what + ") is not a number: '" + s +
+                       "'");
+    return value;
+  }
+  long integer(std::size_t k, const char* what) const {
+    long value = 0;
+    const std::string& s = words_.at(k);
+    const char* begin = s.data() + (s.size() > 1 && s[0] == '+');
+    const auto [end, ec] = std::from_chars(begin, s.data() + s.size(), value);
+    if (ec != std::errc() || end != s.data() + s.size())
+      fail(where_, "[ " + section_ + " ] field " + std::to_string(k + 1) + " (" + what + ") is not an integer: '" + s +
+                       "'");
+    return value;
+  }
+  // A 1-based atom number inside the current molecule, returned 0-based.
+  int atom(std::size_t k, const MoleculeType& molecule) const {
+    const long index = integer(k, "atom number");
+    if (index < 1 || index > static_cast<long>(molecule.atoms.size()))
+      fail(where_, "atom number " + std::to_string(index) + " is out of range: molecule type '" + molecule.name +
+                       "' has " + std::to_string(molecule.atoms.size()) + " atoms (defined so far)");
+    return static_cast<int>(index - 1);
+  }
+  // Numbers after the first `first` fields.
+  std::vector<double> numbers_from(std::size_t first, const char* what) const {
+    std::vector<double> values;
+    for (std::size_t k = first; k < words_.size(); ++k) values.push_back(number(k, what));
+    return values;
+  }
+  [[noreturn]] void error(const std::string& problem) const { fail(where_, problem); }
+
+ private:
+  std::vector<std::string> words_;
+  Where where_;
+  std::string section_;
+};
+
+class TopologyParser {
+ public:
+  explicit TopologyParser(const fs::path& top) : top_(top), pre_(top, gromacs_library_dirs()) {}
+
+  System parse() {
+    LogicalLine line;
+    while (pre_.next(line)) {
+      if (line.text.front() == '[') {
+        header(line);
+        continue;
+      }
+      // GROMACS ignores text before the first section (AMBER and CHARMM force fields open with a
+      // banner of asterisks).
+      if (section_) data(line);
+    }
+    if (molecule_counts_.empty()) throw InputError(top_.string(), 0, "no molecules: the topology has no [ molecules ] entries");
+    return build();
+  }
+
+ private:
+  void header(const LogicalLine& line) {
+    const auto close = line.text.find(']');
+    if (close == std::string::npos || !trim(std::string_view(line.text).substr(close + 1)).empty())
+      fail(line.where, "malformed section header '" + line.text + "', expected e.g. [ atoms ]");
+    section_name_ = lower(std::string(trim(std::string_view(line.text).substr(1, close - 1))));
+    if (section_name_ == "intermolecular_interactions")
+      fail(line.where, "[ intermolecular_interactions ] are not supported by vimd");
+    const auto it = section_table().find(section_name_);
+    if (it == section_table().end()) fail(line.where, "unknown section [ " + section_name_ + " ]");
+    section_ = it->second;
+    if (section_->section != Section::Defaults && !comb_rule_)
+      fail(line.where, "[ " + section_name_ + " ] before [ defaults ]: the force field's [ defaults ] must come first");
+    const bool molecule_level = section_->section >= Section::Atoms && section_->section <= Section::UnsupportedInteraction;
+    if (molecule_level && molecules_.empty())
+      fail(line.where, "[ " + section_name_ + " ] outside a [ moleculetype ]");
+  }
+
+  void data(const LogicalLine& line) {
+    const Fields f(line, section_name_.c_str());
+    switch (section_->section) {
+      case Section::Defaults: defaults(f); break;
+      case Section::AtomTypes: atomtype(f); break;
+      case Section::NonbondParams: nonbond_params(f); break;
+      case Section::BondTypes: bondtype(f); break;
+      case Section::ConstraintTypes: constrainttype(f); break;
+      case Section::AngleTypes: angletype(f); break;
+      case Section::IgnoredTypes: break;
+      case Section::MoleculeType: moleculetype(f); break;
+      case Section::Atoms: atom(f); break;
+      case Section::Bonds: bond(f); break;
+      case Section::Angles: angle(f); break;
+      case Section::Constraints: constraint(f); break;
+      case Section::Settles: settle(f); break;
+      case Section::Exclusions: exclusion(f); break;
+      case Section::UnsupportedInteraction:
+        molecules_.back().mark_unsupported(f.where(), std::string(section_->unsupported_what) + " are not supported");
+        break;
+      case Section::System: title_ += (title_.empty() ? "" : " ") + line.text; break;
+      case Section::Molecules: molecule_count(f); break;
+    }
+  }
+
+  void defaults(const Fields& f) {
+    if (comb_rule_) f.error("second [ defaults ] line (the first is at " + defaults_where_.str() + ")");
+    f.require(2, "nbfunc comb-rule [gen-pairs fudgeLJ fudgeQQ]");
+    if (f.integer(0, "nbfunc") != 1)
+      f.error("nbfunc " + f[0] + " is not supported: vimd computes Lennard-Jones only (nbfunc 1)");
+    const long rule = f.integer(1, "comb-rule");
+    if (rule < 1 || rule > 3) f.error("comb-rule " + f[1] + " is not one of 1, 2, 3");
+    comb_rule_ = static_cast<int>(rule);
+    defaults_where_ = f.where();
+  }
+
+  // GROMACS allows the bonded type and the atomic number columns to be absent; the position of
+  // the one-letter particle type (A, S, V, D, …) tells which layout a line has.
+  void atomtype(const Fields& f) {
+    f.require(6, "name [bond_type] [at.num] mass charge ptype V W");
+    const auto is_ptype = [&](std::size_t k) {
+      return f[k].size() == 1 && std::isalpha(static_cast<unsigned char>(f[k][0]));
+    };
+    std::size_t p = 0;
+    bool has_bonded_name = false;
+    if (is_ptype(5)) {
+      p = 5;
+      has_bonded_name = true;
+    } else if (is_ptype(3)) {
+      p = 3;
+    } else if (is_ptype(4)) {
+      p = 4;
+      has_bonded_name = std::isalpha(static_cast<unsigned char>(f[1][0])) != 0;
+    } else {
+      f.error("cannot find the particle-type column (a single letter A, S, V or D) in [ atomtypes ]");
+    }
+    f.require(p + 3, "name [bond_type] [at.num] mass charge ptype V W");
+    AtomType type{f[0], has_bonded_name ? f[1] : f[0], f.number(p - 2, "mass"), f.number(p - 1, "charge"),
+                  static_cast<char>(std::toupper(static_cast<unsigned char>(f[p][0]))), f.number(p + 1, "V"),
+                  f.number(p + 2, "W"), f.where()};
+    if (std::string("ANSBVD").find(type.ptype) == std::string::npos)
+      f.error("unknown particle type '" + f[p] + "' (expected A, N, S, B, V or D)");
+    if (type.w < 0 || (*comb_rule_ == 1 && type.v < 0))
+      f.error(std::string(*comb_rule_ == 1 ? "c6 and c12" : "epsilon") + " must not be negative");
+    const auto [it, inserted] = atomtype_index_.try_emplace(type.name, static_cast<int>(atomtypes_.size()));
+    if (inserted) {
+      atomtypes_.push_back(type);
+      return;
+    }
+    const AtomType& old = atomtypes_[it->second];
+    if (old.bonded_name != type.bonded_name || old.mass != type.mass || old.charge != type.charge ||
+        old.ptype != type.ptype || old.v != type.v || old.w != type.w)
+      f.error("atom type '" + type.name + "' redefined with different parameters (first defined at " +
+              old.where.str() + ")");
+  }
+
+  const AtomType& atomtype_named(const Fields& f, std::size_t k) const {
+    const auto it = atomtype_index_.find(f[k]);
+    if (it == atomtype_index_.end()) f.error("unknown atom type '" + f[k] + "' (not defined in [ atomtypes ])");
+    return atomtypes_[it->second];
+  }
+
+  static std::pair<std::string, std::string> ordered(std::string a, std::string b) {
+    if (b < a) std::swap(a, b);
+    return {std::move(a), std::move(b)};
+  }
+
+  void nonbond_params(const Fields& f) {
+    f.require(5, "type_i type_j func V W");
+    if (f.integer(2, "func") != 1) f.error("[ nonbond_params ] function type " + f[2] + " is not supported (only 1, LJ)");
+    const auto& a = atomtype_named(f, 0);
+    const auto& b = atomtype_named(f, 1);
+    define_parameters(nonbond_params_, ordered(a.name, b.name), std::pair{f.number(3, "V"), f.number(4, "W")},
+                      f.where(), "[ nonbond_params ] " + a.name + " " + b.name);
+  }
+
+  void bondtype(const Fields& f) {
+    f.require(3, "type_i type_j func parameters");
+    // Other bond functions cannot be computed; bonds that use them are refused where they occur.
+    if (f.integer(2, "func") != 1) return;
+    f.require(5, "type_i type_j 1 b0 kb");
+    define_parameters(bondtypes_, ordered(f[0], f[1]), std::pair{f.number(3, "b0"), f.number(4, "kb")}, f.where(),
+                      "[ bondtypes ] " + f[0] + " " + f[1]);
+  }
+
+  void constrainttype(const Fields& f) {
+    f.require(4, "type_i type_j func b0");
+    const long func = f.integer(2, "func");
+    if (func != 1 && func != 2) f.error("constraint function type " + f[2] + " does not exist (1 or 2)");
+    define_parameters(constrainttypes_, std::pair{static_cast<int>(func), ordered(f[0], f[1])}, f.number(3, "b0"),
+                      f.where(), "[ constrainttypes ] " + f[0] + " " + f[1]);
+  }
+
+  void angletype(const Fields& f) {
+    f.require(4, "type_i type_j type_k func parameters");
+    if (f.integer(3, "func") != 1) return;  // as for bondtypes
+    f.require(6, "type_i type_j type_k 1 theta0 k");
+    // i-j-k and k-j-i are the same angle.
+    auto key = f[0] <= f[2] ? std::array{f[0], f[1], f[2]} : std::array{f[2], f[1], f[0]};
+    define_parameters(angletypes_, key, std::pair{f.number(4, "theta0"), f.number(5, "k")}, f.where(),
+                      "[ angletypes ] " + f[0] + " " + f[1] + " " + f[2]);
+  }
+
+  void moleculetype(const Fields& f) {
+    f.require(2, "name nrexcl");
+    const long nrexcl = f.integer(1, "nrexcl");
+    if (nrexcl < 0) f.error("nrexcl must not be negative");
+    for (const auto& m : molecules_)
+      if (m.name == f[0]) f.error("molecule type '" + f[0] + "' already defined at " + m.where.str());
+    MoleculeType& molecule = molecules_.emplace_back();
+    molecule.name = f[0];
+    molecule.nrexcl = static_cast<int>(nrexcl);
+    molecule.where = f.where();
+  }
+
+  // Residue numbers may carry an insertion code, e.g. 12A.
+  static int residue_number(const Fields& f, std::size_t k) {
+    const std::string& s = f[k];
+    int value = 0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+    const std::size_t rest = s.data() + s.size() - end;
+    if (ec != std::errc() || rest > 1 || (rest == 1 && !std::isalpha(static_cast<unsigned char>(*end))))
+      f.error("[ atoms ] field " + std::to_string(k + 1) + " (residue number) is not an integer: '" + s + "'");
+    return value;
+  }
+
+  void atom(const Fields& f) {
+    f.require(5, "nr type resnr residue atom [cgnr charge mass]");
+    MoleculeType& molecule = molecules_.back();
+    const long nr = f.integer(0, "atom number");
+    if (nr != static_cast<long>(molecule.atoms.size()) + 1)
+      f.error("atoms must be numbered consecutively: expected " + std::to_string(molecule.atoms.size() + 1) +
+              ", found " + f[0]);
+    const AtomType& type = atomtype_named(f, 1);
+    MoleculeAtom a{atomtype_index_.at(type.name), residue_number(f, 2), f[3], f[4],
+                   f.size() > 6 ? f.number(6, "charge") : type.charge, f.size() > 7 ? f.number(7, "mass") : type.mass};
+    if (f.size() > 8) {
+      const AtomType& type_b = atomtype_named(f, 8);
+      const double charge_b = f.size() > 9 ? f.number(9, "chargeB") : type_b.charge;
+      const double mass_b = f.size() > 10 ? f.number(10, "massB") : type_b.mass;
+      if (type_b.name != type.name || charge_b != a.charge || mass_b != a.mass)
+        molecule.mark_unsupported(f.where(), "free-energy perturbation (B-state type, charge or mass) is not supported");
+    }
+    if (type.ptype != 'A' && type.ptype != 'N')
+      molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has particle type " + std::string(1, type.ptype) +
+                                               " (virtual site or shell), which is not supported");
+    else if (a.mass <= 0)
+      molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has mass " + std::to_string(a.mass) +
+                                               "; massless atoms are not supported");
+    molecule.atoms.push_back(std::move(a));
+  }
+
+  const std::string& bonded_name(const MoleculeType& molecule, int atom) const {
+    return atomtypes_[molecule.atoms[atom].type].bonded_name;
+  }
+
+  // Inline parameters: `n` A-state values, optionally followed by an identical B state.
+  static std::optional<std::vector<double>> inline_parameters(const Fields& f, std::size_t first, std::size_t n,
+                                                              const char* layout, MoleculeType& molecule) {
+    auto values = f.numbers_from(first, "parameter");
+    if (values.empty()) return std::nullopt;
+    if (values.size() != n && values.size() != 2 * n)
+      f.error("expected " + std::to_string(n) + " parameters (" + layout + ") or none to use the force field's, found " +
+              std::to_string(values.size()));
+    if (values.size() == 2 * n && !std::equal(values.begin(), values.begin() + n, values.begin() + n))
+      molecule.mark_unsupported(f.where(), "free-energy perturbation (B-state parameters) is not supported");
+    values.resize(n);
+    return values;
+  }
+
+  void bond(const Fields& f) {
+    f.require(3, "ai aj func [parameters]");
+    MoleculeType& molecule = molecules_.back();
+    const int i = f.atom(0, molecule), j = f.atom(1, molecule);
+    if (i == j) f.error("bond between an atom and itself");
+    const long func = f.integer(2, "func");
+    if (func == 5) {  // a connection: only for exclusions
+      molecule.chemical_bonds.emplace_back(i, j);
+      return;
+    }
+    if (func != 1) {
+      molecule.mark_unsupported(f.where(), "bond function type " + f[2] + " is not supported (only 1, harmonic, and 5, connection)");
+      return;
+    }
+    auto params = inline_parameters(f, 3, 2, "b0 kb", molecule);
+    if (!params) {
+      const auto key = ordered(bonded_name(molecule, i), bonded_name(molecule, j));
+      const auto it = bondtypes_.find(key);
+      if (it == bondtypes_.end())
+        f.error("no parameters for this bond: no [ bondtypes ] entry " + key.first + " " + key.second + " 1");
+      params = std::vector{it->second.first.first, it->second.first.second};
+    }
+    molecule.bonds.push_back({i, j, (*params)[0], (*params)[1]});
+    molecule.chemical_bonds.emplace_back(i, j);
+  }
+
+  void angle(const Fields& f) {
+    f.require(4, "ai aj ak func [parameters]");
+    MoleculeType& molecule = molecules_.back();
+    const int i = f.atom(0, molecule), j = f.atom(1, molecule), k = f.atom(2, molecule);
+    if (i == j || j == k || i == k) f.error("angle with a repeated atom");
+    if (f.integer(3, "func") != 1) {
+      molecule.mark_unsupported(f.where(), "angle function type " + f[3] + " is not supported (only 1, harmonic)");
+      return;
+    }
+    auto params = inline_parameters(f, 4, 2, "theta0 k", molecule);
+    if (!params) {
+      const std::string &a = bonded_name(molecule, i), &b = bonded_name(molecule, j), &c = bonded_name(molecule, k);
+      const auto it = angletypes_.find(a <= c ? std::array{a, b, c} : std::array{c, b, a});
+      if (it == angletypes_.end())
+        f.error("no parameters for this angle: no [ angletypes ] entry " + a + " " + b + " " + c + " 1");
+      params = std::vector{it->second.first.first, it->second.first.second};
+    }
+    molecule.angles.push_back({i, j, k, (*params)[0] * std::numbers::pi / 180.0, (*params)[1]});
+  }
+
+  void constraint(const Fields& f) {
+    f.require(3, "ai aj func [b0]");
+    MoleculeType& molecule = molecules_.back();
+    const int i = f.atom(0, molecule), j = f.atom(1, molecule);
+    if (i == j) f.error("constraint between an atom and itself");
+    const long func = f.integer(2, "func");
+    if (func != 1 && func != 2) f.error("constraint function type " + f[2] + " does not exist (1 or 2)");
+    auto params = inline_parameters(f, 3, 1, "b0", molecule);
+    if (!params) {
+      const auto key = std::pair{static_cast<int>(func), ordered(bonded_name(molecule, i), bonded_name(molecule, j))};
+      const auto it = constrainttypes_.find(key);
+      if (it == constrainttypes_.end())
+        f.error("no parameters for this constraint: no [ constrainttypes ] entry " + key.second.first + " " +
+                key.second.second + " " + f[2]);
+      params = std::vector{it->second.first};
+    }
+    if ((*params)[0] <= 0) f.error("constraint length must be positive");
+    molecule.constraints.push_back({i, j, (*params)[0]});
+    if (func == 1) molecule.chemical_bonds.emplace_back(i, j);  // type 2 generates no exclusions
+  }
+
+  // A settle is rigid water: oxygen `ow`, hydrogens ow+1, ow+2; three distance constraints.
+  void settle(const Fields& f) {
+    f.require(4, "OW funct doh dhh");
+    MoleculeType& molecule = molecules_.back();
+    const int o = f.atom(0, molecule);
+    if (f.integer(1, "funct") != 1) f.error("settles function type must be 1");
+    if (o + 2 >= static_cast<int>(molecule.atoms.size()))
+      f.error("settles needs the two hydrogens right after the oxygen (atoms " + std::to_string(o + 2) + ", " +
+              std::to_string(o + 3) + ")");
+    const double doh = f.number(2, "doh"), dhh = f.number(3, "dhh");
+    if (doh <= 0 || dhh <= 0) f.error("settles distances must be positive");
+    molecule.constraints.push_back({o, o + 1, doh});
+    molecule.constraints.push_back({o, o + 2, doh});
+    molecule.constraints.push_back({o + 1, o + 2, dhh});
+    molecule.chemical_bonds.emplace_back(o, o + 1);
+    molecule.chemical_bonds.emplace_back(o, o + 2);
+  }
+
+  void exclusion(const Fields& f) {
+    f.require(2, "ai aj [ak …]");
+    MoleculeType& molecule = molecules_.back();
+    const int i = f.atom(0, molecule);
+    for (std::size_t k = 1; k < f.size(); ++k) molecule.explicit_exclusions.emplace_back(i, f.atom(k, molecule));
+  }
+
+  void molecule_count(const Fields& f) {
+    f.require(2, "name count");
+    const auto it = std::find_if(molecules_.begin(), molecules_.end(), [&](const auto& m) { return m.name == f[0]; });
+    if (it == molecules_.end()) f.error("no [ moleculetype ] named '" + f[0] + "'");
+    const long count = f.integer(1, "count");
+    if (count <= 0) f.error("molecule count must be positive, found " + f[1]);
+    if (it->unsupported)
+      fail(it->unsupported->where, "molecule type '" + it->name + "' (used in [ molecules ] at " + f.where().str() +
+                                       "): " + it->unsupported->what);
+    if (it->atoms.empty()) f.error("molecule type '" + it->name + "' has no atoms");
+    molecule_counts_.push_back({static_cast<int>(it - molecules_.begin()), static_cast<int>(count)});
+  }
+
+  // Per atom of a molecule type: the atoms within nrexcl chemical bonds plus [ exclusions ].
+  static std::vector<std::vector<int>> molecule_exclusions(const MoleculeType& m) {
+    const int n = static_cast<int>(m.atoms.size());
+    std::vector<std::vector<int>> neighbours(n), excluded(n);
+    for (auto [i, j] : m.chemical_bonds) {
+      neighbours[i].push_back(j);
+      neighbours[j].push_back(i);
+    }
+    std::vector<int> distance(n, -1);
+    for (int start = 0; start < n; ++start) {
+      std::vector<int> frontier{start}, reached{start};
+      distance[start] = 0;
+      for (int depth = 1; depth <= m.nrexcl && !frontier.empty(); ++depth) {
+        std::vector<int> next;
+        for (int a : frontier)
+          for (int b : neighbours[a])
+            if (distance[b] < 0) {
+              distance[b] = depth;
+              next.push_back(b);
+              reached.push_back(b);
+            }
+        frontier = std::move(next);
+      }
+      for (int a : reached) {
+        if (a != start) excluded[start].push_back(a);
+        distance[a] = -1;
+      }
+    }
+    for (auto [i, j] : m.explicit_exclusions) {
+      if (i == j) continue;
+      excluded[i].push_back(j);
+      excluded[j].push_back(i);
+    }
+    for (auto& list : excluded) {
+      std::sort(list.begin(), list.end());
+      list.erase(std::unique(list.begin(), list.end()), list.end());
+    }
+    return excluded;
+  }
+
+  std::pair<double, double> lennard_jones(const AtomType& a, const AtomType& b) const {
+    double v, w;
+    if (const auto it = nonbond_params_.find(ordered(a.name, b.name)); it != nonbond_params_.end()) {
+      std::tie(v, w) = it->second.first;
+    } else if (*comb_rule_ == 1) {
+      v = std::sqrt(a.v * b.v);
+      w = std::sqrt(a.w * b.w);
+    } else {
+      // A negative sigma means c6 = 0 (GROMACS convention), carried through the combination.
+      v = *comb_rule_ == 2 ? 0.5 * (std::abs(a.v) + std::abs(b.v)) : std::sqrt(std::abs(a.v * b.v));
+      if (a.v < 0 || b.v < 0) v = -v;
+      w = std::sqrt(a.w * b.w);
+    }
+    if (*comb_rule_ == 1) return {v, w};
+    const double sigma6 = std::pow(std::abs(v), 6);
+    return {v < 0 ? 0.0 : 4 * w * sigma6, 4 * w * sigma6 * sigma6};
+  }
+
+  // GROMACS renumbers the residues of single-residue molecules (water, ions) consecutively after
+  // the highest residue number of the other molecules; multi-residue molecules keep theirs.
+  static int residue_count(const MoleculeType& m) {
+    int count = 0;
+    for (std::size_t a = 0; a < m.atoms.size(); ++a)
+      if (a == 0 || m.atoms[a].residue_number != m.atoms[a - 1].residue_number) ++count;
+    return count;
+  }
+
+  System build() const {
+    System system;
+    system.title = title_;
+    std::size_t n = 0;
+    int next_residue = 1;
+    for (const auto& mc : molecule_counts_) {
+      const MoleculeType& m = molecules_[mc.type];
+      n += m.atoms.size() * mc.count;
+      if (residue_count(m) > 1)
+        for (const auto& a : m.atoms) next_residue = std::max(next_residue, a.residue_number + 1);
+    }
+    system.mass.resize(n);
+    system.charge.resize(n);
+    system.exclusions.reserve(n);
+    std::vector<int> compact_type(atomtypes_.size(), -1);
+    std::vector<int> used_types;
+
+    int offset = 0, instance = 0;
+    for (const auto& mc : molecule_counts_) {
+      const MoleculeType& m = molecules_[mc.type];
+      const auto excluded = molecule_exclusions(m);
+      const bool renumber = residue_count(m) <= 1;
+      for (int copy = 0; copy < mc.count; ++copy, ++instance) {
+        for (std::size_t a = 0; a < m.atoms.size(); ++a) {
+          const MoleculeAtom& atom = m.atoms[a];
+          if (compact_type[atom.type] < 0) {
+            compact_type[atom.type] = static_cast<int>(used_types.size());
+            used_types.push_back(atom.type);
+          }
+          const int global = offset + static_cast<int>(a);
+          system.atom_names.push_back(atom.name);
+          system.residue_names.push_back(atom.residue_name);
+          system.residue_numbers.push_back(renumber ? next_residue : atom.residue_number);
+          system.molecule.push_back(instance);
+          system.mass[global] = atom.mass;
+          system.charge[global] = atom.charge;
+          system.type.push_back(compact_type[atom.type]);
+          std::vector<int> list = excluded[a];
+          for (int& e : list) e += offset;
+          system.exclusions.push_back(std::move(list));
+        }
+        if (renumber) ++next_residue;
+        for (Bond b : m.bonds) {
+          b.i += offset;
+          b.j += offset;
+          system.bonds.push_back(b);
+        }
+        for (Angle a : m.angles) {
+          a.i += offset;
+          a.j += offset;
+          a.k += offset;
+          system.angles.push_back(a);
+        }
+        for (Constraint c : m.constraints) {
+          c.i += offset;
+          c.j += offset;
+          system.constraints.push_back(c);
+        }
+        offset += static_cast<int>(m.atoms.size());
+      }
+    }
+
+    const int nt = static_cast<int>(used_types.size());
+    system.c6.resize(nt, nt);
+    system.c12.resize(nt, nt);
+    for (int a = 0; a < nt; ++a) {
+      system.type_names.push_back(atomtypes_[used_types[a]].name);
+      for (int b = 0; b < nt; ++b)
+        std::tie(system.c6(a, b), system.c12(a, b)) = lennard_jones(atomtypes_[used_types[a]], atomtypes_[used_types[b]]);
+    }
+    return system;
+  }
+
+  fs::path top_;
+  Preprocessor pre_;
+  std::string section_name_;
+  std::optional<SectionInfo> section_;
+
+  std::optional<int> comb_rule_;
+  Where defaults_where_;
+  std::vector<AtomType> atomtypes_;
+  std::unordered_map<std::string, int> atomtype_index_;
+  std::map<std::pair<std::string, std::string>, std::pair<std::pair<double, double>, Where>> nonbond_params_;
+  std::map<std::pair<std::string, std::string>, std::pair<std::pair<double, double>, Where>> bondtypes_;
+  std::map<std::pair<int, std::pair<std::string, std::string>>, std::pair<double, Where>> constrainttypes_;
+  std::map<std::array<std::string, 3>, std::pair<std::pair<double, double>, Where>> angletypes_;
+  std::vector<MoleculeType> molecules_;
+  std::vector<MoleculeCount> molecule_counts_;
+  std::string title_;
+};
+
+}  // namespace
+
+std::vector<fs::path> gromacs_library_dirs() {
+  std::vector<fs::path> dirs;
+  const char* gmxlib = std::getenv("GMXLIB");
+  if (gmxlib && *gmxlib) {
+    std::string_view rest(gmxlib);
+    while (!rest.empty()) {
+      const auto colon = std::min(rest.find(':'), rest.size());
+      if (colon > 0) dirs.emplace_back(rest.substr(0, colon));
+      rest.remove_prefix(std::min(colon + 1, rest.size()));
+    }
+  } else {
+    dirs.emplace_back("/usr/share/gromacs/top");
+  }
+  return dirs;
+}
+
+System read_topology(const fs::path& top) { return TopologyParser(top).parse(); }
+
+}  // namespace vimd

@@ -1,0 +1,131 @@
+#include <gtest/gtest.h>
+
+#include "engine/config.hpp"
+#include "engine/errors.hpp"
+#include "marked_line.hpp"
+
+namespace fs = std::filesystem;
+using namespace vimd;
+
+namespace {
+const fs::path kConfig = fs::path(VIMD_SOURCE_DIR) / "tests/data/config";
+const fs::path kData = fs::path(VIMD_SOURCE_DIR) / "tests/data";
+}  // namespace
+
+TEST(Config, ReadsEveryKey) {
+  const RunConfig c = read_config(kConfig / "full.toml");
+  EXPECT_EQ(c.file, kConfig / "full.toml");
+  // Relative paths are relative to the config file's directory.
+  EXPECT_EQ(c.structure, (kData / "gro/water2.gro").lexically_normal());
+  EXPECT_EQ(c.topology, (kData / "top/spce_opls.top").lexically_normal());
+  EXPECT_EQ(c.output.dir, kConfig / "results/run1");
+  EXPECT_EQ(c.output.trajectory_every, 50);
+  EXPECT_EQ(c.output.energy_every, 5);
+
+  EXPECT_DOUBLE_EQ(c.forcefield.cutoff, 1.0);
+  EXPECT_EQ(c.forcefield.vdw_modifier, "potential-switch");
+  EXPECT_DOUBLE_EQ(c.forcefield.vdw_switch, 0.8);
+  EXPECT_EQ(c.forcefield.coulomb, "reaction-field");
+  EXPECT_DOUBLE_EQ(c.forcefield.epsilon_r, 1.0);  // an integer where a number is expected is fine
+  EXPECT_DOUBLE_EQ(c.forcefield.epsilon_rf, 78.0);
+  EXPECT_DOUBLE_EQ(c.forcefield.neighbor_skin, 0.12);
+
+  const IntegratorConfig& in = c.integrator;
+  EXPECT_EQ(in.type, "vi");
+  EXPECT_DOUBLE_EQ(in.dt, 0.001);
+  EXPECT_EQ(in.steps, 500);
+  EXPECT_DOUBLE_EQ(in.constraint_tolerance, 1e-12);
+  ASSERT_TRUE(in.temperature.has_value());
+  EXPECT_DOUBLE_EQ(*in.temperature, 300.0);
+  EXPECT_EQ(in.seed, 42u);
+  EXPECT_EQ(in.method, "user");
+  EXPECT_EQ(in.method_minus, std::optional<std::string>("rk4"));
+  EXPECT_EQ(in.bias, (std::array<double, 2>{0.25, 0.75}));
+  EXPECT_EQ(in.projection, "mass");
+  EXPECT_EQ(in.solver_tolerance, std::optional<double>(1e-11));
+  EXPECT_EQ(in.max_iterations, 30);
+  EXPECT_EQ(in.acceleration, "anderson");
+  ASSERT_TRUE(in.tableau.has_value());
+  EXPECT_EQ(in.tableau->a, (std::vector<std::vector<double>>{{0.0, 0.0}, {0.5, 0.0}}));
+  EXPECT_EQ(in.tableau->b, (std::vector<double>{0.0, 1.0}));
+  EXPECT_EQ(in.tableau->c, (std::vector<double>{0.0, 0.5}));  // not given: row sums of a
+  EXPECT_EQ(in.tableau->order, 2);
+  EXPECT_EQ(in.tableau->line, marked_line(kConfig / "full.toml", "[integrator.tableau]"));
+}
+
+TEST(Config, DefaultsFromTheContract) {
+  const RunConfig c = read_config(kConfig / "minimal.toml");
+  const ForceFieldConfig ff;
+  const IntegratorConfig in;
+  const OutputConfig out;
+  EXPECT_EQ(c.forcefield.cutoff, ff.cutoff);
+  EXPECT_EQ(c.forcefield.vdw_modifier, ff.vdw_modifier);
+  EXPECT_EQ(c.forcefield.coulomb, ff.coulomb);
+  EXPECT_EQ(c.forcefield.epsilon_rf, ff.epsilon_rf);
+  EXPECT_EQ(c.forcefield.neighbor_skin, ff.neighbor_skin);
+  EXPECT_EQ(c.integrator.type, in.type);
+  EXPECT_EQ(c.integrator.dt, in.dt);
+  EXPECT_EQ(c.integrator.steps, in.steps);
+  EXPECT_EQ(c.integrator.constraint_tolerance, in.constraint_tolerance);
+  EXPECT_FALSE(c.integrator.temperature.has_value());
+  EXPECT_FALSE(c.integrator.tableau.has_value());
+  EXPECT_EQ(c.integrator.method, in.method);
+  EXPECT_EQ(c.output.trajectory_every, out.trajectory_every);
+  EXPECT_EQ(c.output.energy_every, out.energy_every);
+  EXPECT_EQ(c.output.dir, kConfig / out.dir);  // the default dir is relative to the config too
+}
+
+TEST(Config, MalformedConfigsNameFileAndLine) {
+  struct Case {
+    const char* file;
+    const char* problem;
+  };
+  const Case cases[] = {
+      {"unknown_key.toml", "unknown key 'cutof' in [forcefield]; did you mean 'cutoff'?"},
+      {"unknown_table.toml", "unknown table [integrater]; did you mean [integrator]?"},
+      {"key_in_wrong_table.toml", "'dt' belongs in [integrator]"},
+      {"top_level_key.toml", "'steps' must be inside [integrator]"},
+      {"syntax_error.toml", "TOML syntax error"},
+      {"negative_dt.toml", "dt must be positive"},
+      {"negative_steps.toml", "steps must not be negative"},
+      {"zero_cutoff.toml", "cutoff must be positive"},
+      {"bad_modifier.toml", "did you mean \"potential-shift\"? (choices: none, potential-shift, force-switch, potential-switch)"},
+      {"bad_coulomb.toml", "coulomb = \"pme\" is not supported (choices: reaction-field, cutoff, none)"},
+      {"bad_integrator_type.toml", "(choices: verlet, shake, rattle, vi, rk)"},
+      {"bad_projection.toml", "(choices: euclidean, mass)"},
+      {"wrong_type.toml", "steps must be an integer, found a string"},
+      {"fractional_steps.toml", "steps must be an integer, found a floating-point number"},
+      {"string_cutoff.toml", "cutoff must be a number, found a string"},
+      {"switch_beyond_cutoff.toml", "must be smaller than cutoff"},
+      {"bad_bias.toml", "bias must have two numbers"},
+      {"ragged_tableau.toml", "tableau a must be square"},
+      {"tableau_without_user.toml", "method must be \"user\""},
+      {"missing_structure.toml", "[system] needs structure"},
+      {"structure_not_found.toml", "nowhere.gro does not exist"},
+      {"negative_energy_every.toml", "energy_every must not be negative"},
+      {"infinite_dt.toml", "dt must be a finite number"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.file);
+    const fs::path file = kConfig / "bad" / c.file;
+    const int line = marked_line(file, "# ERROR");
+    try {
+      read_config(file);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(e.line(), line) << what;
+      EXPECT_NE(what.find(std::string(c.file) + ":" + std::to_string(line) + ": "), std::string::npos) << what;
+      EXPECT_NE(what.find(c.problem), std::string::npos) << what;
+    }
+  }
+}
+
+TEST(Config, MissingFileIsAnInputError) {
+  try {
+    read_config(kConfig / "no_such.toml");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such.toml"), std::string::npos);
+  }
+}

@@ -1,0 +1,313 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <iterator>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <tuple>
+
+#include "engine/errors.hpp"
+#include "engine/topology.hpp"
+#include "marked_line.hpp"
+
+namespace fs = std::filesystem;
+using namespace vimd;
+
+namespace {
+
+const fs::path kData = fs::path(VIMD_SOURCE_DIR) / "tests/data";
+const fs::path kTop = kData / "top";
+
+double deg(double d) { return d * std::numbers::pi / 180.0; }
+
+// c6, c12 from sigma, epsilon: 4ε σ⁶ and 4ε σ¹².
+double c6_of(double sigma, double eps) { return 4 * eps * std::pow(sigma, 6); }
+double c12_of(double sigma, double eps) { return 4 * eps * std::pow(sigma, 12); }
+
+// Sets an environment variable for one scope.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const std::string& value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    setenv(name, value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (old_) setenv(name_, old_->c_str(), 1);
+    else unsetenv(name_);
+  }
+
+ private:
+  const char* name_;
+  std::optional<std::string> old_;
+};
+
+void expect_exclusions_consistent(const System& s) {
+  ASSERT_EQ(static_cast<int>(s.exclusions.size()), s.n_atoms());
+  for (int i = 0; i < s.n_atoms(); ++i) {
+    EXPECT_TRUE(std::is_sorted(s.exclusions[i].begin(), s.exclusions[i].end()));
+    for (int j : s.exclusions[i]) {
+      EXPECT_NE(i, j);
+      EXPECT_TRUE(std::binary_search(s.exclusions[j].begin(), s.exclusions[j].end(), i)) << i << " " << j;
+    }
+  }
+}
+
+}  // namespace
+
+TEST(Topology, LoadsStandardOplsSpce) {
+  ScopedEnv no_gmxlib("GMXLIB", "");
+  const System s = read_topology(kTop / "spce_opls.top");
+  EXPECT_EQ(s.title, "Two SPC/E waters");
+  ASSERT_EQ(s.n_atoms(), 6);
+  EXPECT_EQ(s.atom_names, (std::vector<std::string>{"OW", "HW1", "HW2", "OW", "HW1", "HW2"}));
+  EXPECT_EQ(s.residue_names[4], "SOL");
+  EXPECT_EQ(s.residue_numbers, (std::vector<int>{1, 1, 1, 2, 2, 2}));
+  EXPECT_EQ(s.molecule, (std::vector<int>{0, 0, 0, 1, 1, 1}));
+  for (int w = 0; w < 2; ++w) {
+    EXPECT_DOUBLE_EQ(s.mass[3 * w], 15.9994);  // opls_116 without HEAVY_H
+    EXPECT_DOUBLE_EQ(s.mass[3 * w + 1], 1.008);
+    EXPECT_DOUBLE_EQ(s.charge[3 * w], -0.8476);  // spce.itp overrides the atom type's -0.82
+    EXPECT_DOUBLE_EQ(s.charge[3 * w + 2], 0.4238);
+  }
+  EXPECT_EQ(s.type_names, (std::vector<std::string>{"opls_116", "opls_117"}));
+  EXPECT_EQ(s.type, (std::vector<int>{0, 1, 1, 0, 1, 1}));
+  // OPLS uses comb-rule 3; opls_116 has sigma 0.316557 nm, epsilon 0.650194 kJ/mol.
+  EXPECT_NEAR(s.c6(0, 0), c6_of(0.316557, 0.650194), 1e-15);
+  EXPECT_NEAR(s.c12(0, 0), c12_of(0.316557, 0.650194), 1e-18);
+  // OPLS's rounded sigma/epsilon reproduce the SPC/E c6/c12 of GROMACS's GROMOS files to 3e-4.
+  EXPECT_NEAR(s.c6(0, 0), 0.0026173456, 5e-4 * 0.0026173456);
+  EXPECT_NEAR(s.c12(0, 0), 2.634129e-6, 5e-4 * 2.634129e-6);
+  EXPECT_EQ(s.c6(0, 1), 0.0);
+  EXPECT_EQ(s.c12(1, 1), 0.0);
+  EXPECT_TRUE(s.bonds.empty());
+  EXPECT_TRUE(s.angles.empty());
+  ASSERT_EQ(s.constraints.size(), 6u);  // settles -> O-H1, O-H2, H1-H2 per water
+  const std::vector<std::tuple<int, int, double>> expected = {{0, 1, 0.1}, {0, 2, 0.1}, {1, 2, 0.16330},
+                                                              {3, 4, 0.1}, {3, 5, 0.1}, {4, 5, 0.16330}};
+  for (std::size_t c = 0; c < expected.size(); ++c) {
+    EXPECT_EQ(s.constraints[c].i, std::get<0>(expected[c]));
+    EXPECT_EQ(s.constraints[c].j, std::get<1>(expected[c]));
+    EXPECT_DOUBLE_EQ(s.constraints[c].length, std::get<2>(expected[c]));
+  }
+  EXPECT_EQ(s.exclusions[0], (std::vector<int>{1, 2}));
+  EXPECT_EQ(s.exclusions[1], (std::vector<int>{0, 2}));
+  EXPECT_EQ(s.exclusions[5], (std::vector<int>{3, 4}));
+  expect_exclusions_consistent(s);
+  EXPECT_EQ(s.box.length, Vec3::Zero());
+  EXPECT_EQ(s.degrees_of_freedom(), 18 - 6);  // no box yet, so no centre-of-mass correction
+}
+
+TEST(Topology, FlexibleDefineSelectsBondsAndAngle) {
+  ScopedEnv no_gmxlib("GMXLIB", "");
+  const System s = read_topology(kTop / "spce_opls_flexible.top");
+  EXPECT_TRUE(s.constraints.empty());
+  ASSERT_EQ(s.bonds.size(), 4u);
+  EXPECT_EQ(s.bonds[1].i, 0);
+  EXPECT_EQ(s.bonds[1].j, 2);
+  EXPECT_DOUBLE_EQ(s.bonds[1].length, 0.1);
+  EXPECT_DOUBLE_EQ(s.bonds[1].k, 345000);
+  ASSERT_EQ(s.angles.size(), 2u);
+  EXPECT_EQ(s.angles[1].i, 4);
+  EXPECT_EQ(s.angles[1].j, 3);
+  EXPECT_EQ(s.angles[1].k, 5);
+  EXPECT_NEAR(s.angles[1].theta0, deg(109.47), 1e-15);
+  EXPECT_DOUBLE_EQ(s.angles[1].force_constant, 383);
+  // nrexcl 2 along the two O-H bonds excludes H1-H2 without [ exclusions ].
+  EXPECT_EQ(s.exclusions[4], (std::vector<int>{3, 5}));
+  expect_exclusions_consistent(s);
+}
+
+TEST(Topology, ChainWithTypedParametersExclusionsAndResidues) {
+  const System s = read_topology(kTop / "chain.top");
+  EXPECT_EQ(s.title, "Chain and ions");
+  ASSERT_EQ(s.n_atoms(), 7);
+  EXPECT_EQ(s.molecule, (std::vector<int>{0, 0, 0, 0, 0, 1, 2}));
+  // The chain has two residues and keeps its numbers; single-residue ions continue after them.
+  EXPECT_EQ(s.residue_numbers, (std::vector<int>{1, 1, 2, 2, 2, 3, 4}));
+  EXPECT_EQ(s.residue_names[5], "ION");
+  EXPECT_EQ(s.atom_names[2], "C3");
+  // Masses and charges from [ atoms ], else from the atom type.
+  const std::vector<double> mass = {12.011, 14.027, 13.019, 14.027, 15.035, 15.035, 15.035};
+  const std::vector<double> charge = {0.10, -0.10, 0.0, -0.10, -0.25, 0.25, 0.25};
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_DOUBLE_EQ(s.mass[i], mass[i]) << i;
+    EXPECT_DOUBLE_EQ(s.charge[i], charge[i]) << i;
+  }
+  // Types in order of first use; all four [ atomtypes ] column layouts.
+  EXPECT_EQ(s.type_names, (std::vector<std::string>{"CA", "CB", "CD", "CC"}));
+  EXPECT_EQ(s.type, (std::vector<int>{0, 1, 2, 1, 3, 3, 3}));
+  const double sigma[] = {0.34, 0.39, 0.38, 0.30}, eps[] = {0.36, 0.40, 0.20, 0.50};
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      double sig = 0.5 * (sigma[a] + sigma[b]), ep = std::sqrt(eps[a] * eps[b]);  // Lorentz-Berthelot
+      if ((a == 0 && b == 3) || (a == 3 && b == 0)) sig = 0.31, ep = 0.45;       // [ nonbond_params ]
+      EXPECT_NEAR(s.c6(a, b), c6_of(sig, ep), 1e-15) << a << b;
+      EXPECT_NEAR(s.c12(a, b), c12_of(sig, ep), 1e-18) << a << b;
+    }
+  // Bonds: CA-CX and CX-CX from [ bondtypes ] via bonded types, the third inline.
+  ASSERT_EQ(s.bonds.size(), 3u);
+  EXPECT_DOUBLE_EQ(s.bonds[0].length, 0.153);
+  EXPECT_DOUBLE_EQ(s.bonds[0].k, 250000);
+  EXPECT_DOUBLE_EQ(s.bonds[1].length, 0.154);
+  EXPECT_DOUBLE_EQ(s.bonds[1].k, 200000);
+  EXPECT_EQ(s.bonds[2].i, 2);
+  EXPECT_EQ(s.bonds[2].j, 3);
+  EXPECT_DOUBLE_EQ(s.bonds[2].length, 0.16);
+  EXPECT_DOUBLE_EQ(s.bonds[2].k, 1000);
+  ASSERT_EQ(s.constraints.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.constraints[0].length, 0.155);  // [ constrainttypes ] CX CC 1, not the type-2 entry
+  EXPECT_EQ(s.constraints[1].i, 0);
+  EXPECT_EQ(s.constraints[1].j, 3);
+  EXPECT_DOUBLE_EQ(s.constraints[1].length, 0.30);
+  ASSERT_EQ(s.angles.size(), 2u);
+  EXPECT_EQ(s.angles[0].j, 1);
+  EXPECT_NEAR(s.angles[0].theta0, deg(111.0), 1e-15);
+  EXPECT_DOUBLE_EQ(s.angles[0].force_constant, 400);
+  EXPECT_NEAR(s.angles[1].theta0, deg(109.5), 1e-15);
+  // nrexcl 2 along bonds and the type-1 constraint 4-5; the type-2 constraint 1-4 adds nothing;
+  // [ exclusions ] 1 5 adds 1-5.
+  EXPECT_EQ(s.exclusions[0], (std::vector<int>{1, 2, 4}));
+  EXPECT_EQ(s.exclusions[1], (std::vector<int>{0, 2, 3}));
+  EXPECT_EQ(s.exclusions[2], (std::vector<int>{0, 1, 3, 4}));
+  EXPECT_EQ(s.exclusions[3], (std::vector<int>{1, 2, 4}));
+  EXPECT_EQ(s.exclusions[4], (std::vector<int>{0, 2, 3}));
+  EXPECT_TRUE(s.exclusions[5].empty());
+  expect_exclusions_consistent(s);
+}
+
+TEST(Topology, CombinationRuleOneUsesC6C12Geometrically) {
+  const System s = read_topology(kTop / "comb1.top");
+  EXPECT_DOUBLE_EQ(s.c6(0, 0), 0.0026);
+  EXPECT_DOUBLE_EQ(s.c12(1, 1), 4.0e-6);
+  EXPECT_DOUBLE_EQ(s.c6(0, 1), 0.0031);  // [ nonbond_params ]
+  EXPECT_DOUBLE_EQ(s.c12(1, 0), 3.1e-6);
+}
+
+TEST(Topology, CombinationRuleThreeIsGeometricAndNegativeSigmaZeroesC6) {
+  const System s = read_topology(kTop / "comb3.top");
+  EXPECT_NEAR(s.c6(0, 0), c6_of(0.30, 0.50), 1e-15);
+  EXPECT_NEAR(s.c12(0, 0), c12_of(0.30, 0.50), 1e-18);
+  EXPECT_EQ(s.c6(1, 1), 0.0);
+  EXPECT_NEAR(s.c12(1, 1), c12_of(0.40, 0.20), 1e-18);
+  EXPECT_EQ(s.c6(0, 1), 0.0);
+  EXPECT_NEAR(s.c12(0, 1), c12_of(std::sqrt(0.30 * 0.40), std::sqrt(0.50 * 0.20)), 1e-18);
+}
+
+TEST(Topology, IfdefBranchesMacrosAndContinuation) {
+  const System s = read_topology(kTop / "dimer_ifdef.top");
+  ASSERT_EQ(s.n_atoms(), 6);
+  EXPECT_TRUE(s.bonds.empty());  // #else branch and the #undef'ed block are skipped
+  ASSERT_EQ(s.constraints.size(), 3u);
+  for (const auto& c : s.constraints) EXPECT_DOUBLE_EQ(c.length, 0.2);  // DIMER_LENGTH substituted
+  EXPECT_EQ(s.constraints[2].i, 4);
+  std::istringstream title(s.title);
+  std::vector<std::string> words{std::istream_iterator<std::string>(title), {}};
+  EXPECT_EQ(words, (std::vector<std::string>{"Dimer", "with", "continuation"}));
+
+  const System b = read_topology(kTop / "dimer_bond.top");
+  ASSERT_EQ(b.bonds.size(), 1u);
+  EXPECT_DOUBLE_EQ(b.bonds[0].length, 0.2);
+  EXPECT_DOUBLE_EQ(b.bonds[0].k, 5000.0);
+  EXPECT_TRUE(b.constraints.empty());
+}
+
+TEST(Topology, GmxlibOverridesTheDataDirectory) {
+  {
+    ScopedEnv env("GMXLIB", (kData / "gmxlib").string());
+    const System s = read_topology(kTop / "gmxlib.top");
+    ASSERT_EQ(s.n_atoms(), 1);
+    EXPECT_DOUBLE_EQ(s.mass[0], 42.0);
+    EXPECT_DOUBLE_EQ(s.charge[0], 0.5);
+  }
+  {
+    ScopedEnv env("GMXLIB", "/nonexistent:" + (kData / "gmxlib").string());
+    EXPECT_EQ(gromacs_library_dirs(), (std::vector<fs::path>{"/nonexistent", kData / "gmxlib"}));
+    EXPECT_EQ(read_topology(kTop / "gmxlib.top").n_atoms(), 1);
+  }
+  {
+    ScopedEnv env("GMXLIB", "");
+    EXPECT_EQ(gromacs_library_dirs(), (std::vector<fs::path>{"/usr/share/gromacs/top"}));
+    try {
+      read_topology(kTop / "gmxlib.top");
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.line(), 2);
+      EXPECT_NE(std::string(e.what()).find("gmxlib.top:2: cannot find #include \"mini.ff/forcefield.itp\""),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+TEST(Topology, MalformedInputsNameFileAndLine) {
+  struct Case {
+    const char* top;
+    const char* marked;  // the file whose "; ERROR" line the error must name
+    const char* problem;
+  };
+  const Case cases[] = {
+      {"bad_number.top", "bad_number.top", "(parameter) is not a number: '0.1x'"},
+      {"unknown_section.top", "unknown_section.top", "unknown section [ atomz ]"},
+      {"pairs_used.top", "pairs_used.top", "1-4 pair interactions ([ pairs ]) are not supported"},
+      {"dihedrals_used.top", "dihedrals_used.top", "dihedrals ([ dihedrals ]) are not supported"},
+      {"morse_used.top", "morse_used.top", "bond function type 3 is not supported"},
+      {"vsite_used.top", "vsite_used.top", "particle type D"},
+      {"posres_active.top", "posres_active.top", "position restraints"},
+      {"missing_molecule.top", "missing_molecule.top", "no [ moleculetype ] named 'WATER'"},
+      {"zero_count.top", "zero_count.top", "molecule count must be positive"},
+      {"unknown_atomtype.top", "unknown_atomtype.top", "unknown atom type 'CZ'"},
+      {"atom_out_of_range.top", "atom_out_of_range.top", "atom number 3 is out of range"},
+      {"missing_bondtype.top", "missing_bondtype.top", "no [ bondtypes ] entry CC CC 1"},
+      {"include_bad_line.top", "bad_line.itp", "(residue number) is not an integer: 'one'"},
+      {"missing_include.top", "missing_include.top", "cannot find #include \"no_such_file.itp\""},
+      {"unclosed_ifdef.top", "unclosed_ifdef.top", "not closed by an #endif"},
+      {"else_without_ifdef.top", "else_without_ifdef.top", "#else without a matching #ifdef"},
+      {"unknown_directive.top", "unknown_directive.top", "unsupported preprocessor directive '#if'"},
+      {"atomtypes_before_defaults.top", "atomtypes_before_defaults.top", "before [ defaults ]"},
+      {"bad_comb_rule.top", "bad_comb_rule.top", "comb-rule 4 is not one of 1, 2, 3"},
+      {"nonconsecutive_atoms.top", "nonconsecutive_atoms.top", "numbered consecutively: expected 2, found 3"},
+      {"atoms_outside_molecule.top", "atoms_outside_molecule.top", "outside a [ moleculetype ]"},
+      {"redefined_atomtype.top", "redefined_atomtype.top", "'CA' redefined with different parameters (first defined at"},
+      {"too_few_fields.top", "too_few_fields.top", "expected at least 4"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.top);
+    const fs::path marked = kTop / "bad" / c.marked;
+    const int line = marked_line(marked, "; ERROR");
+    try {
+      read_topology(kTop / "bad" / c.top);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(e.line(), line) << what;
+      EXPECT_EQ(fs::path(e.file()).filename(), c.marked) << what;
+      EXPECT_NE(what.find(std::string(c.marked) + ":" + std::to_string(line) + ": "), std::string::npos) << what;
+      EXPECT_NE(what.find(c.problem), std::string::npos) << what;
+    }
+  }
+}
+
+TEST(Topology, UnsupportedEntryNamesTheMoleculesLineToo) {
+  try {
+    read_topology(kTop / "bad/pairs_used.top");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("molecule type 'D' (used in [ molecules ] at "), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("pairs_used.top:13)"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Topology, EmptyMoleculesIsAnError) {
+  try {
+    read_topology(kTop / "bad/no_molecules.top");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 0);
+    EXPECT_NE(std::string(e.what()).find("no_molecules.top: no molecules"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_topology(kTop / "no_such.top"), InputError);
+}
