@@ -1,0 +1,335 @@
+#include "engine/neighbor_list.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+
+namespace {
+
+constexpr int kCluster = NeighborList::kClusterSize;
+constexpr int kHalf = NeighborList::kHalfSize;
+
+// The half list keeps an image of a cluster paired with itself only for one of ±shift.
+bool is_positive_image(const Eigen::Vector3i& n) {
+  for (int k = 0; k < 3; ++k)
+    if (n[k] != 0) return n[k] > 0;
+  return false;
+}
+
+// Contiguous block of [0, n) for thread t of nt: the same split for a given thread count.
+std::pair<int, int> static_block(int n, int t, int nt) {
+  return {static_cast<int>(static_cast<long>(n) * t / nt), static_cast<int>(static_cast<long>(n) * (t + 1) / nt)};
+}
+
+}  // namespace
+
+NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions)
+    : box_(box), cutoff_(cutoff), skin_(skin), exclusions_(std::move(exclusions)) {
+  if (!(cutoff > 0)) throw InputError("[forcefield]", 0, "cutoff must be positive");
+  if (!(skin >= 0)) throw InputError("[forcefield]", 0, "neighbor_skin must not be negative");
+  const double list_range = cutoff + skin;
+  static const char* axis = "xyz";
+  for (int k = 0; k < 3; ++k) {
+    const double length = box.length[k];
+    if (length < 0) throw InputError("box", 0, std::string("negative box length in ") + axis[k]);
+    // With L ≥ 2 rc each pair has at most one image inside the cut-off (minimum image convention).
+    if (length > 0 && length < 2 * cutoff) {
+      std::ostringstream msg;
+      msg << "box length " << length << " nm in " << axis[k] << " is shorter than twice the cut-off (" << cutoff
+          << " nm)";
+      throw InputError("box", 0, msg.str());
+    }
+    // Wrapped positions lie in [0, L): images up to ceil(r_list / L) boxes away can be in range.
+    shift_index_range_.push_back(length > 0 ? static_cast<int>(std::ceil(list_range / length)) : 0);
+  }
+  const int mx = shift_index_range_[0], my = shift_index_range_[1], mz = shift_index_range_[2];
+  for (int sx = -mx; sx <= mx; ++sx)
+    for (int sy = -my; sy <= my; ++sy)
+      for (int sz = -mz; sz <= mz; ++sz) {
+        shift_images_.emplace_back(sx, sy, sz);
+        shift_vectors_.emplace_back(sx * box.length[0], sy * box.length[1], sz * box.length[2]);
+      }
+}
+
+double NeighborList::max_displacement(const Coords& q) const {
+  if (builds_ == 0 || q.cols() != n_atoms_) return INFINITY;
+  double max_d2 = 0;
+#pragma omp parallel for reduction(max : max_d2) schedule(static)
+  for (int i = 0; i < n_atoms_; ++i) max_d2 = std::max(max_d2, (q.col(i) - q_at_build_.col(i)).squaredNorm());
+  return std::sqrt(max_d2);
+}
+
+bool NeighborList::update(const Coords& q) {
+  if (max_displacement(q) <= 0.5 * skin_) return false;
+  build(q);
+  return true;
+}
+
+void NeighborList::build(const Coords& q) {
+  if (!exclusions_.empty() && static_cast<Eigen::Index>(exclusions_.size()) != q.cols())
+    throw std::invalid_argument("NeighborList: exclusion lists for " + std::to_string(exclusions_.size()) +
+                                " atoms, positions for " + std::to_string(q.cols()));
+  n_atoms_ = static_cast<int>(q.cols());
+  q_at_build_ = q;
+  bin_atoms(q);
+  compute_bounds();
+  search_pairs();
+  collect_excluded_pairs();
+  ++builds_;
+}
+
+void NeighborList::bin_atoms(const Coords& q) {
+  const int n = n_atoms_;
+  wrapped_.resize(3, n);
+  image_offset_.resize(3, n);
+  Vec3 lo, extent;
+  for (int k = 0; k < 3; ++k) {
+    const double length = box_.length[k];
+    if (length > 0) {
+      for (int i = 0; i < n; ++i) {
+        double image = std::floor(q(k, i) / length) * length;
+        double w = q(k, i) - image;
+        if (w >= length) {  // rounding can put w at exactly L
+          w -= length;
+          image += length;
+        }
+        wrapped_(k, i) = w;
+        image_offset_(k, i) = image;
+      }
+      lo[k] = 0;
+      extent[k] = length;
+    } else {
+      wrapped_.row(k) = q.row(k);
+      image_offset_.row(k).setZero();
+      lo[k] = n > 0 ? q.row(k).minCoeff() : 0;
+      extent[k] = n > 0 ? q.row(k).maxCoeff() - lo[k] : 0;
+    }
+  }
+  grid_lo_ = lo;
+
+  // Columns about as wide as a cubic cluster of kClusterSize atoms at the mean density.
+  constexpr double kMinExtent = 1e-3;  // nm; keeps the density finite for flat or single-atom systems
+  const double volume = std::max(extent[0], kMinExtent) * std::max(extent[1], kMinExtent) *
+                        std::max(extent[2], kMinExtent);
+  const double cluster_side = std::cbrt(kCluster * volume / std::max(n, 1));
+  const int max_columns = std::max(1, n / kCluster);
+  for (int k = 0; k < 2; ++k)
+    n_columns_[k] = std::clamp(static_cast<int>(std::lround(extent[k] / cluster_side)), 1, max_columns);
+  while (n_columns_[0] * n_columns_[1] > max_columns) {
+    int& larger = n_columns_[0] >= n_columns_[1] ? n_columns_[0] : n_columns_[1];
+    larger = std::max(1, larger / 2);
+  }
+  for (int k = 0; k < 2; ++k) column_width_[k] = extent[k] > 0 ? extent[k] / n_columns_[k] : 1.0;
+
+  const int n_columns = n_columns_[0] * n_columns_[1];
+  std::vector<int> column_of(n);
+  std::vector<int> column_count(n_columns + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    int c[2];
+    for (int k = 0; k < 2; ++k)
+      c[k] = std::clamp(static_cast<int>((wrapped_(k, i) - lo[k]) / column_width_[k]), 0, n_columns_[k] - 1);
+    column_of[i] = c[0] * n_columns_[1] + c[1];
+    ++column_count[column_of[i] + 1];
+  }
+  std::vector<int> column_atom_start(n_columns + 1, 0);
+  std::partial_sum(column_count.begin(), column_count.end(), column_atom_start.begin());
+  std::vector<int> sorted(n);
+  {
+    std::vector<int> fill(column_atom_start.begin(), column_atom_start.end() - 1);
+    for (int i = 0; i < n; ++i) sorted[fill[column_of[i]]++] = i;
+  }
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int c = 0; c < n_columns; ++c)
+    std::sort(sorted.begin() + column_atom_start[c], sorted.begin() + column_atom_start[c + 1], [&](int a, int b) {
+      return wrapped_(2, a) < wrapped_(2, b) || (wrapped_(2, a) == wrapped_(2, b) && a < b);
+    });
+
+  column_cluster_start_.assign(n_columns + 1, 0);
+  for (int c = 0; c < n_columns; ++c) {
+    const int atoms = column_atom_start[c + 1] - column_atom_start[c];
+    column_cluster_start_[c + 1] = column_cluster_start_[c] + (atoms + kCluster - 1) / kCluster;
+  }
+  n_clusters_ = column_cluster_start_[n_columns];
+  slot_atom_.assign(static_cast<std::size_t>(n_clusters_) * kCluster, -1);
+  atom_slot_.assign(n, -1);
+  for (int c = 0; c < n_columns; ++c) {
+    const int first_slot = column_cluster_start_[c] * kCluster;
+    for (int k = column_atom_start[c]; k < column_atom_start[c + 1]; ++k) {
+      const int slot = first_slot + (k - column_atom_start[c]);
+      slot_atom_[slot] = sorted[k];
+      atom_slot_[sorted[k]] = slot;
+    }
+  }
+}
+
+void NeighborList::compute_bounds() {
+  const Bounds empty{Vec3::Constant(INFINITY), Vec3::Constant(-INFINITY)};
+  cluster_bounds_.assign(n_clusters_, empty);
+  half_bounds_.assign(2 * n_clusters_, empty);
+#pragma omp parallel for schedule(static)
+  for (int s = 0; s < n_slots(); s += kHalf) {
+    Bounds& half = half_bounds_[s / kHalf];
+    for (int k = s; k < s + kHalf; ++k) {
+      const int a = slot_atom_[k];
+      if (a < 0) continue;
+      half.lo = half.lo.cwiseMin(wrapped_.col(a));
+      half.hi = half.hi.cwiseMax(wrapped_.col(a));
+    }
+  }
+  for (int c = 0; c < n_clusters_; ++c) {
+    cluster_bounds_[c].lo = half_bounds_[2 * c].lo.cwiseMin(half_bounds_[2 * c + 1].lo);
+    cluster_bounds_[c].hi = half_bounds_[2 * c].hi.cwiseMax(half_bounds_[2 * c + 1].hi);
+  }
+}
+
+std::uint32_t NeighborList::pair_mask(int i_half, int j_cluster, bool zero_shift) const {
+  const int i_first = i_half * kHalf;
+  const int j_first = j_cluster * kCluster;
+  const int i_in_cluster = (i_half % 2) * kHalf;
+  std::uint32_t mask = 0;
+  for (int ii = 0; ii < kHalf; ++ii) {
+    const int a = slot_atom_[i_first + ii];
+    if (a < 0) continue;
+    for (int jj = 0; jj < kCluster; ++jj) {
+      if (slot_atom_[j_first + jj] < 0) continue;
+      if (j_cluster == i_half / 2) {
+        if (zero_shift && jj <= i_in_cluster + ii) continue;  // each pair inside a cluster once
+        if (jj == i_in_cluster + ii) continue;                 // never an atom with its own image
+      }
+      mask |= 1u << (ii * kCluster + jj);
+    }
+    if (exclusions_.empty()) continue;
+    for (int p : exclusions_[a]) {
+      const int ps = atom_slot_[p];
+      if (ps / kCluster == j_cluster) mask &= ~(1u << (ii * kCluster + ps % kCluster));
+    }
+  }
+  return mask;
+}
+
+void NeighborList::search_pairs() {
+  const double list_range = cutoff_ + skin_;
+  const double range2 = list_range * list_range;
+  const int n_halves = 2 * n_clusters_;
+  const int zero_shift = static_cast<int>(shift_vectors_.size() / 2);  // (0,0,0) is the middle image
+
+  std::vector<int> count(n_halves + 1, 0);
+  std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
+#pragma omp parallel
+  {
+    // Contiguous blocks per thread, concatenated in thread order: the list does not depend on
+    // the thread count.
+    const int t = omp_get_thread_num();
+    const auto [first, last] = static_block(n_halves, t, omp_get_num_threads());
+    std::vector<Entry>& out = per_thread[t];
+    out.clear();
+    std::vector<Entry> found;
+    for (int h = first; h < last; ++h) {
+      const Bounds& bi = half_bounds_[h];
+      if (bi.lo[0] > bi.hi[0]) continue;  // all padding
+      const int a_cluster = h / 2;
+      found.clear();
+      for (int si = 0; si < static_cast<int>(shift_vectors_.size()); ++si) {
+        const Vec3& shift = shift_vectors_[si];
+        const bool positive = is_positive_image(shift_images_[si]);
+        int c_lo[2], c_hi[2];
+        bool empty = false;
+        for (int k = 0; k < 2; ++k) {
+          const double lo = (bi.lo[k] - list_range - shift[k] - grid_lo_[k]) / column_width_[k];
+          const double hi = (bi.hi[k] + list_range - shift[k] - grid_lo_[k]) / column_width_[k];
+          if (hi < 0 || lo >= n_columns_[k]) {
+            empty = true;
+            break;
+          }
+          c_lo[k] = std::max(0, static_cast<int>(std::floor(lo)));
+          c_hi[k] = std::min(n_columns_[k] - 1, static_cast<int>(std::floor(hi)));
+        }
+        if (empty) continue;
+        for (int cx = c_lo[0]; cx <= c_hi[0]; ++cx)
+          for (int cy = c_lo[1]; cy <= c_hi[1]; ++cy) {
+            const int column = cx * n_columns_[1] + cy;
+            for (int b = std::max(a_cluster, column_cluster_start_[column]); b < column_cluster_start_[column + 1];
+                 ++b) {
+              if (b == a_cluster && si != zero_shift && !positive) continue;
+              const Bounds& bj = cluster_bounds_[b];
+              double d2 = 0;
+              for (int k = 0; k < 3; ++k) {
+                const double gap = std::max({0.0, bj.lo[k] + shift[k] - bi.hi[k], bi.lo[k] - bj.hi[k] - shift[k]});
+                d2 += gap * gap;
+              }
+              if (d2 >= range2) continue;
+              const std::uint32_t mask = pair_mask(h, b, si == zero_shift);
+              if (mask != 0) found.push_back({b, si, mask});
+            }
+          }
+      }
+      std::sort(found.begin(), found.end(), [](const Entry& x, const Entry& y) {
+        return x.j_cluster < y.j_cluster || (x.j_cluster == y.j_cluster && x.shift < y.shift);
+      });
+      count[h + 1] = static_cast<int>(found.size());
+      out.insert(out.end(), found.begin(), found.end());
+    }
+  }
+  half_start_.assign(n_halves + 1, 0);
+  std::partial_sum(count.begin(), count.end(), half_start_.begin());
+  entries_.clear();
+  entries_.reserve(half_start_.back());
+  for (const auto& part : per_thread) entries_.insert(entries_.end(), part.begin(), part.end());
+}
+
+void NeighborList::collect_excluded_pairs() {
+  excluded_pairs_.clear();
+  const int m[3] = {shift_index_range_[0], shift_index_range_[1], shift_index_range_[2]};
+  for (int a = 0; a < static_cast<int>(exclusions_.size()); ++a)
+    for (int p : exclusions_[a]) {
+      if (p <= a) continue;
+      // Image of p nearest to a at the build; positions stay continuous until the next build.
+      int image[3];
+      for (int k = 0; k < 3; ++k) {
+        const double length = box_.length[k];
+        image[k] = length > 0 ? static_cast<int>(std::lround((wrapped_(k, a) - wrapped_(k, p)) / length)) : 0;
+      }
+      const int shift = ((image[0] + m[0]) * (2 * m[1] + 1) + (image[1] + m[1])) * (2 * m[2] + 1) + (image[2] + m[2]);
+      excluded_pairs_.push_back({atom_slot_[a], atom_slot_[p], shift});
+    }
+}
+
+void NeighborList::pack_positions(const Coords& q, double* x, double* y, double* z) const {
+  const int n = n_slots();
+#pragma omp parallel for schedule(static)
+  for (int s = 0; s < n; ++s) {
+    const int a = slot_atom_[s];
+    if (a < 0) {
+      x[s] = y[s] = z[s] = 0;
+    } else {
+      x[s] = q(0, a) - image_offset_(0, a);
+      y[s] = q(1, a) - image_offset_(1, a);
+      z[s] = q(2, a) - image_offset_(2, a);
+    }
+  }
+}
+
+void NeighborList::pack_vectors(const Coords& u, double* x, double* y, double* z) const {
+  const int n = n_slots();
+#pragma omp parallel for schedule(static)
+  for (int s = 0; s < n; ++s) {
+    const int a = slot_atom_[s];
+    if (a < 0) {
+      x[s] = y[s] = z[s] = 0;
+    } else {
+      x[s] = u(0, a);
+      y[s] = u(1, a);
+      z[s] = u(2, a);
+    }
+  }
+}
+
+}  // namespace vimd

@@ -1,0 +1,112 @@
+#pragma once
+// Buffered cluster-pair Verlet list (the GROMACS "nbnxm" layout, simplified).
+//
+// Atoms are binned into x-y columns, sorted by z inside each column and cut into clusters of
+// kClusterSize atoms (the last cluster of a column is padded). The list holds, for every
+// half-cluster i (kHalfSize atoms), the j-clusters whose bounding boxes lie within
+// cutoff + skin of it, each with a periodic shift and a bit mask of the atom pairs that interact
+// (padding, exclusions and double counting removed). Every atom pair is listed once.
+//
+// Positions are never wrapped by the integrators. At a build each atom gets the image offset that
+// puts it into the box; the same offsets are used until the next build, so the packed
+// coordinates move continuously and one shift per cluster pair stays valid. The list is rebuilt
+// when any atom has moved more than skin/2 since the last build, so a pair inside the cut-off is
+// never missed. Small or non-periodic systems need no special case: with few columns the search
+// simply visits all cluster pairs (all periodic images within reach included).
+#include <cstdint>
+#include <vector>
+
+#include "engine/box.hpp"
+#include "engine/types.hpp"
+
+namespace vimd {
+
+class NeighborList {
+ public:
+  static constexpr int kClusterSize = 8;  // j-cluster: one 8-wide SIMD vector of doubles
+  static constexpr int kHalfSize = kClusterSize / 2;
+
+  struct Entry {
+    int j_cluster;
+    int shift;           // index into shift_vectors(); the j atoms are taken at x_j + shift
+    std::uint32_t mask;  // bit (ii * kClusterSize + jj): i-half atom ii interacts with j atom jj
+  };
+  // An excluded atom pair (i < j in atom order) in slot indices, with the shift that gives its
+  // minimum image; kept for interactions that act on excluded pairs (reaction-field correction).
+  struct ExcludedPair {
+    int i_slot, j_slot, shift;
+  };
+
+  // exclusions[i]: atoms that have no nonbonded interaction with atom i (System::exclusions).
+  // Throws InputError if a periodic box length is shorter than twice the cut-off.
+  NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions);
+
+  // Rebuilds when an atom has moved more than skin/2 since the last build (or never was built).
+  // Returns true if it rebuilt.
+  bool update(const Coords& q);
+  void build(const Coords& q);
+  // Largest displacement of any atom since the last build, nm.
+  double max_displacement(const Coords& q) const;
+  long builds() const { return builds_; }
+
+  double cutoff() const { return cutoff_; }
+  double skin() const { return skin_; }
+  const Box& box() const { return box_; }
+
+  // Layout of the last build. Slot s = c * kClusterSize + k holds atom slot_atom()[s] (−1: padding).
+  int n_atoms() const { return n_atoms_; }
+  int n_clusters() const { return n_clusters_; }
+  int n_slots() const { return n_clusters_ * kClusterSize; }
+  int n_halves() const { return 2 * n_clusters_; }
+  const std::vector<int>& slot_atom() const { return slot_atom_; }
+  const std::vector<int>& atom_slot() const { return atom_slot_; }
+
+  // Positions in slot order, each shifted by its atom's build-time image offset (SoA; padding 0).
+  void pack_positions(const Coords& q, double* x, double* y, double* z) const;
+  // Any per-atom 3-vector (e.g. the direction of a Hessian–vector product) in slot order, unshifted.
+  void pack_vectors(const Coords& u, double* x, double* y, double* z) const;
+
+  // Entries of i-half h: entries()[half_start()[h] .. half_start()[h + 1]).
+  const std::vector<int>& half_start() const { return half_start_; }
+  const std::vector<Entry>& entries() const { return entries_; }
+  const std::vector<Vec3>& shift_vectors() const { return shift_vectors_; }
+  const std::vector<ExcludedPair>& excluded_pairs() const { return excluded_pairs_; }
+
+ private:
+  struct Bounds {
+    Vec3 lo, hi;
+  };
+  void bin_atoms(const Coords& q);
+  void compute_bounds();
+  void search_pairs();
+  void collect_excluded_pairs();
+  std::uint32_t pair_mask(int i_half, int j_cluster, bool zero_shift) const;
+
+  Box box_;
+  double cutoff_, skin_;
+  std::vector<std::vector<int>> exclusions_;
+
+  int n_atoms_ = 0;
+  long builds_ = 0;
+  Coords q_at_build_;
+  Coords image_offset_;  // per atom: wrapped = q − image_offset
+  Coords wrapped_;       // per atom, at the last build
+
+  // Grid of x-y columns over [grid_lo, grid_lo + n_columns * column_width).
+  Vec3 grid_lo_ = Vec3::Zero();
+  double column_width_[2] = {1, 1};
+  int n_columns_[2] = {1, 1};
+  std::vector<int> column_cluster_start_;  // clusters of column c: [start[c], start[c + 1])
+
+  int n_clusters_ = 0;
+  std::vector<int> slot_atom_, atom_slot_;
+  std::vector<Bounds> cluster_bounds_, half_bounds_;
+  std::vector<int> shift_index_range_;  // per dimension: images −m..m are searched
+  std::vector<Vec3> shift_vectors_;
+  std::vector<Eigen::Vector3i> shift_images_;
+  std::vector<int> half_start_;
+  std::vector<Entry> entries_;
+  std::vector<ExcludedPair> excluded_pairs_;
+};
+
+}  // namespace vimd

@@ -1,0 +1,26 @@
+#pragma once
+// Harmonic bond stretching (GROMACS bond type 1), energy "bonds":
+//   V = Σ_bonds ½ k (|r_i − r_j| − b0)², differences by minimum image
+//   Units: r, b0 nm; k kJ/mol/nm²; V kJ/mol.
+#include <vector>
+
+#include "engine/box.hpp"
+#include "engine/force_field.hpp"
+#include "engine/system.hpp"
+
+namespace vimd {
+
+class HarmonicBondTerm : public ForceTerm {
+ public:
+  HarmonicBondTerm(std::vector<Bond> bonds, const Box& box);
+
+  std::vector<std::string> energy_names() const override { return {"bonds"}; }
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies) override;
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override;
+
+ private:
+  std::vector<Bond> bonds_;
+  Box box_;
+};
+
+}  // namespace vimd

@@ -1,0 +1,60 @@
+#include "forcefields/lennard_jones.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+
+VdwModifier parse_vdw_modifier(const std::string& name) {
+  if (name == "none") return VdwModifier::none;
+  if (name == "potential-shift") return VdwModifier::potential_shift;
+  if (name == "force-switch") return VdwModifier::force_switch;
+  if (name == "potential-switch") return VdwModifier::potential_switch;
+  throw InputError("[forcefield]", 0,
+                   "unknown vdw_modifier '" + name + "' (expected none, potential-shift, force-switch or potential-switch)");
+}
+
+LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch) {
+  LjConstants k;
+  k.cutoff = cutoff;
+  const double rc = cutoff;
+  switch (modifier) {
+    case VdwModifier::none:
+      break;
+    case VdwModifier::potential_shift:
+      k.shift6 = -std::pow(rc, -6);
+      k.shift12 = -std::pow(rc, -12);
+      break;
+    case VdwModifier::force_switch:
+    case VdwModifier::potential_switch: {
+      if (!(r_switch >= 0 && r_switch < rc)) {
+        std::ostringstream msg;
+        msg << "vdw_switch (" << r_switch << " nm) must lie in [0, cutoff = " << rc << " nm) for the switched modifiers";
+        throw InputError("[forcefield]", 0, msg.str());
+      }
+      k.r_switch = r_switch;
+      const double w = rc - r_switch;
+      if (modifier == VdwModifier::potential_switch) {
+        k.s3 = -10 / std::pow(w, 3);
+        k.s4 = 15 / std::pow(w, 4);
+        k.s5 = -6 / std::pow(w, 5);
+      } else {
+        // A = −p((p+4)rc − (p+1)r1)/(rc^(p+2)(rc−r1)²), B = p((p+3)rc − (p+1)r1)/(rc^(p+2)(rc−r1)³),
+        // C = rc^-p − A/3 (rc−r1)³ − B/4 (rc−r1)⁴, so that force and potential vanish at rc.
+        auto constants = [&](double p, double& a, double& b, double& shift) {
+          a = -p * ((p + 4) * rc - (p + 1) * r_switch) / (std::pow(rc, p + 2) * w * w);
+          b = p * ((p + 3) * rc - (p + 1) * r_switch) / (std::pow(rc, p + 2) * w * w * w);
+          shift = -(std::pow(rc, -p) - a / 3 * std::pow(w, 3) - b / 4 * std::pow(w, 4));
+        };
+        constants(6, k.a6, k.b6, k.shift6);
+        constants(12, k.a12, k.b12, k.shift12);
+      }
+      break;
+    }
+  }
+  return k;
+}
+
+}  // namespace vimd

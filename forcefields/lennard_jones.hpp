@@ -1,0 +1,99 @@
+#pragma once
+// Lennard-Jones pair potential with GROMACS's Verlet-scheme modifiers, V = 0 for r ≥ rc:
+//   V(r) = c12/r¹² − c6/r⁶ [none]; − (c12/rc¹² − c6/rc⁶) [potential-shift]; GROMACS force-switch / potential-switch.
+//   Units: r nm, c6 kJ/mol nm⁶, c12 kJ/mol nm¹², V kJ/mol.
+//
+// The kernels return, per pair at distance r (d = r_i − r_j):
+//   energy_force: φ and g = −φ'(r)/r, so the force on i is g d;
+//   hessian:      a = φ'(r)/r and b = (φ'' − φ'/r)/r², so the pair Hessian block is a I + b d dᵀ.
+// They are branch-free inline functions so the pair loop can vectorise them over 8 j atoms.
+#include <algorithm>
+#include <string>
+
+namespace vimd {
+
+enum class VdwModifier { none, potential_shift, force_switch, potential_switch };
+
+// "none" | "potential-shift" | "force-switch" | "potential-switch"; throws InputError otherwise.
+VdwModifier parse_vdw_modifier(const std::string& name);
+
+// Constants of a modifier, per unit coefficient of the r⁻⁶ and r⁻¹² parts (GROMACS manual,
+// "Modified non-bonded interactions"; forcerec.cpp force_switch_constants / potential_switch_constants).
+struct LjConstants {
+  double cutoff = 0, r_switch = 0;
+  // Constant added to r⁻ᵖ: −rc⁻ᵖ for potential-shift, −C_p for force-switch, 0 otherwise.
+  double shift6 = 0, shift12 = 0;
+  // Force switch: −dV_p/dr = p r^-(p+1) + A_p x² + B_p x³, V_p = r⁻ᵖ − A_p/3 x³ − B_p/4 x⁴ − C_p, x = r − r_switch ≥ 0.
+  double a6 = 0, b6 = 0, a12 = 0, b12 = 0;
+  // Potential switch: V → V·S(x), S = 1 + s3 x³ + s4 x⁴ + s5 x⁵ (S(0) = 1, S(rc − r_switch) = 0, S' = S'' = 0 at both ends).
+  double s3 = 0, s4 = 0, s5 = 0;
+};
+
+// r_switch is used by the switched modifiers only and must then satisfy 0 ≤ r_switch < cutoff.
+LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch);
+
+template <VdwModifier M>
+inline void lj_energy_force(const LjConstants& k, double c6, double c12, double rinv2, double r, double& v,
+                            double& g) {
+  const double rinv6 = rinv2 * rinv2 * rinv2;
+  const double rep = c12 * rinv6 * rinv6;  // c12 r⁻¹²
+  const double dis = c6 * rinv6;           // c6 r⁻⁶
+  if constexpr (M == VdwModifier::none || M == VdwModifier::potential_shift) {
+    v = rep - dis + (c12 * k.shift12 - c6 * k.shift6);
+    g = (12 * rep - 6 * dis) * rinv2;
+  } else if constexpr (M == VdwModifier::force_switch) {
+    const double x = std::max(r - k.r_switch, 0.0);
+    const double x2 = x * x, x3 = x2 * x;
+    const double rinv = rinv2 * r;
+    v = rep - dis + c12 * (k.shift12 - (k.a12 / 3 + k.b12 / 4 * x) * x3) - c6 * (k.shift6 - (k.a6 / 3 + k.b6 / 4 * x) * x3);
+    g = (12 * rep - 6 * dis) * rinv2 + (c12 * (k.a12 + k.b12 * x) - c6 * (k.a6 + k.b6 * x)) * x2 * rinv;
+  } else {  // potential_switch
+    const double x = std::max(r - k.r_switch, 0.0);
+    const double x2 = x * x;
+    const double rinv = rinv2 * r;
+    const double s = 1 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
+    const double ds = (3 * k.s3 + (4 * k.s4 + 5 * k.s5 * x) * x) * x2;
+    const double u = rep - dis;
+    const double minus_du_r = 12 * rep - 6 * dis;  // −r dV/dr
+    v = u * s;
+    g = minus_du_r * s * rinv2 - u * ds * rinv;
+  }
+}
+
+template <VdwModifier M>
+inline void lj_hessian(const LjConstants& k, double c6, double c12, double rinv2, double r, double& a, double& b) {
+  const double rinv6 = rinv2 * rinv2 * rinv2;
+  const double rep = c12 * rinv6 * rinv6;
+  const double dis = c6 * rinv6;
+  if constexpr (M == VdwModifier::none || M == VdwModifier::potential_shift) {
+    a = (6 * dis - 12 * rep) * rinv2;
+    b = (168 * rep - 48 * dis) * rinv2 * rinv2;
+  } else if constexpr (M == VdwModifier::force_switch) {
+    // Per power p: φ_p'/r = −p r^-(p+2) − (A x² + B x³)/r;
+    // (φ_p'' − φ_p'/r)/r² = [p(p+2) r^-(p+2) − 2A x − 3B x² + (A x² + B x³)/r] / r².
+    const double x = std::max(r - k.r_switch, 0.0);
+    const double x2 = x * x;
+    const double rinv = rinv2 * r;
+    const double poly12 = (k.a12 + k.b12 * x) * x2, poly6 = (k.a6 + k.b6 * x) * x2;
+    a = (6 * dis - 12 * rep) * rinv2 - (c12 * poly12 - c6 * poly6) * rinv;
+    b = ((168 * rep - 48 * dis) * rinv2 - c12 * ((2 * k.a12 + 3 * k.b12 * x) * x - poly12 * rinv) +
+         c6 * ((2 * k.a6 + 3 * k.b6 * x) * x - poly6 * rinv)) *
+        rinv2;
+  } else {  // potential_switch: φ = U S, φ' = U'S + U S', φ'' = U''S + 2U'S' + U S''
+    const double x = std::max(r - k.r_switch, 0.0);
+    const double x2 = x * x;
+    const double rinv = rinv2 * r;
+    const double s = 1 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
+    const double ds = (3 * k.s3 + (4 * k.s4 + 5 * k.s5 * x) * x) * x2;
+    const double dds = (6 * k.s3 + (12 * k.s4 + 20 * k.s5 * x) * x) * x;
+    const double u = rep - dis;
+    const double du = (6 * dis - 12 * rep) * rinv;         // U'
+    const double ddu = (156 * rep - 42 * dis) * rinv2;     // U''
+    const double dphi = du * s + u * ds;
+    const double ddphi = ddu * s + 2 * du * ds + u * dds;
+    a = dphi * rinv;
+    b = (ddphi - a) * rinv2;
+  }
+}
+
+}  // namespace vimd

@@ -1,0 +1,65 @@
+#pragma once
+// The nonbonded pair term: one OpenMP pair loop over the cluster-pair Verlet list, evaluating the
+// Lennard-Jones kernel (lennard_jones.hpp) and the reaction-field Coulomb kernel (reaction_field.hpp)
+// for every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
+//   V = Σ_{i<j, not excluded, r<rc} [V_LJ(r) + V_RF(r)] + Σ_{excluded, r<rc} V_RF,excl(r) + Σ_i V_RF,self
+//   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
+//
+// Threads: each thread takes a contiguous block of i-half-clusters (balanced by list entries)
+// and accumulates into its own force buffer; the buffers are summed per atom in thread order.
+// No atomics, no races. Energies are summed from per-half partials in a fixed order, so they do
+// not depend on the thread count at all; forces and HVPs differ by round-off only.
+#include <string>
+#include <vector>
+
+#include "engine/config.hpp"
+#include "engine/force_field.hpp"
+#include "engine/neighbor_list.hpp"
+#include "engine/system.hpp"
+#include "forcefields/lennard_jones.hpp"
+#include "forcefields/reaction_field.hpp"
+
+namespace vimd {
+
+class NonbondedPairTerm : public ForceTerm {
+ public:
+  NonbondedPairTerm(const System& system, const ForceFieldConfig& config);
+
+  std::vector<std::string> energy_names() const override { return {"lj", "coulomb"}; }
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies) override;
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override;
+  void prepare(const Coords& q) override;
+  long rebuilds() const override { return list_.builds(); }
+
+  const NeighborList& neighbor_list() const { return list_; }
+  VdwModifier vdw_modifier() const { return modifier_; }
+  const LjConstants& lj_constants() const { return lj_; }
+  const ReactionField& reaction_field() const { return rf_; }
+
+ private:
+  void refresh_layout();  // slot-ordered charges and types after a list rebuild
+  void ensure_buffers();
+  template <class Kernel>
+  void run_parallel(Kernel&& kernel, Coords& out);
+
+  int n_atoms_;
+  VdwModifier modifier_;
+  LjConstants lj_;
+  ReactionField rf_;
+  double cutoff2_;
+  double self_energy_ = 0;
+  int n_types_;
+  std::vector<double> c6_, c12_;  // [ti * n_types + tj]
+  Eigen::VectorXd charge_;
+  std::vector<int> type_;
+
+  NeighborList list_;
+  long layout_build_ = -1;  // list build the slot arrays below belong to
+  std::vector<double> slot_charge_;
+  std::vector<int> slot_type_;
+  std::vector<double> x_, y_, z_, ux_, uy_, uz_;
+  std::vector<std::vector<double>> thread_buffers_;  // per thread: x, y, z blocks of n_slots
+  std::vector<double> partial_energies_;             // per i-half and per excluded-pair block
+};
+
+}  // namespace vimd

@@ -1,0 +1,31 @@
+#include "forcefields/reaction_field.hpp"
+
+#include <cmath>
+
+#include "engine/errors.hpp"
+#include "engine/types.hpp"
+
+namespace vimd {
+
+ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff) {
+  ReactionField rf;
+  if (coulomb == "none") return rf;
+  if (coulomb != "reaction-field" && coulomb != "cutoff")
+    throw InputError("[forcefield]", 0, "unknown coulomb '" + coulomb + "' (expected reaction-field, cutoff or none)");
+  if (!(epsilon_r > 0)) throw InputError("[forcefield]", 0, "epsilon_r must be positive");
+  rf.kind = CoulombKind::reaction_field;
+  rf.prefactor = kCoulomb / epsilon_r;
+  const double rc3 = cutoff * cutoff * cutoff;
+  if (coulomb == "cutoff") {
+    rf.k_rf = 0;
+  } else if (epsilon_rf == 0) {  // eps_rf = ∞ (conducting boundary)
+    rf.k_rf = 1 / (2 * rc3);
+  } else {
+    if (!(epsilon_rf > 0)) throw InputError("[forcefield]", 0, "epsilon_rf must be positive, or 0 for infinity");
+    rf.k_rf = (epsilon_rf - epsilon_r) / ((2 * epsilon_rf + epsilon_r) * rc3);
+  }
+  rf.c_rf = 1 / cutoff + rf.k_rf * cutoff * cutoff;
+  return rf;
+}
+
+}  // namespace vimd

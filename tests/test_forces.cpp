@@ -1,0 +1,312 @@
+// Force-field terms: kernel formulas against GROMACS's published definitions, forces against
+// finite differences of the energy, Hessian–vector products against finite differences of the
+// forces, for every LJ modifier and Coulomb kind.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "engine/errors.hpp"
+#include "forcefields/harmonic_angle.hpp"
+#include "forcefields/harmonic_bond.hpp"
+#include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/registry.hpp"
+#include "test_ff_systems.hpp"
+
+namespace vimd {
+namespace {
+
+using testing::evaluate;
+using testing::hessian_vector;
+using testing::relative_difference;
+
+// Fourth-order central differences: truncation O(h⁴), so 1e-6 relative is a real check.
+constexpr double kStep = 1e-5;
+
+Coords finite_difference_forces(ForceTerm& term, const Coords& q) {
+  Coords f(3, q.cols());
+  for (int i = 0; i < q.cols(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      auto energy = [&](double h) {
+        Coords p = q;
+        p(k, i) += h;
+        return evaluate(term, p).energy;
+      };
+      f(k, i) = -(-energy(2 * kStep) + 8 * energy(kStep) - 8 * energy(-kStep) + energy(-2 * kStep)) / (12 * kStep);
+    }
+  return f;
+}
+
+// ∇²V u = −d/dε F(q + ε u).
+Coords finite_difference_hessian_vector(ForceTerm& term, const Coords& q, const Coords& u) {
+  auto force = [&](double h) { return evaluate(term, q + h * u).f; };
+  return -(-force(2 * kStep) + 8 * force(kStep) - 8 * force(-kStep) + force(-2 * kStep)) / (12 * kStep);
+}
+
+Coords random_direction(int n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Coords u(3, n);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
+  return u;
+}
+
+void expect_derivatives_match(ForceTerm& term, const Coords& q, const std::string& what) {
+  const auto at_q = evaluate(term, q);
+  ASSERT_GT(at_q.f.norm(), 0.0) << what << ": forces vanish, the check would be empty";
+  const Coords fd = finite_difference_forces(term, q);
+  EXPECT_LT(relative_difference(at_q.f, fd), 1e-6) << what << ": forces vs finite differences";
+  const Coords u = random_direction(static_cast<int>(q.cols()), 7);
+  const Coords hu = hessian_vector(term, q, u);
+  ASSERT_GT(hu.norm(), 0.0) << what;
+  EXPECT_LT(relative_difference(hu, finite_difference_hessian_vector(term, q, u)), 1e-6)
+      << what << ": Hessian-vector product vs finite differences";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Kernel formulas, written here independently from the GROMACS reference manual
+// ("Modified non-bonded interactions", "Reaction field").
+
+double manual_force_switch_potential(double p, double r, double r1, double rc) {
+  const double a = -p * ((p + 4) * rc - (p + 1) * r1) / (std::pow(rc, p + 2) * std::pow(rc - r1, 2));
+  const double b = p * ((p + 3) * rc - (p + 1) * r1) / (std::pow(rc, p + 2) * std::pow(rc - r1, 3));
+  const double c = 1 / std::pow(rc, p) - a / 3 * std::pow(rc - r1, 3) - b / 4 * std::pow(rc - r1, 4);
+  if (r < r1) return 1 / std::pow(r, p) - c;
+  return 1 / std::pow(r, p) - a / 3 * std::pow(r - r1, 3) - b / 4 * std::pow(r - r1, 4) - c;
+}
+
+double manual_switch(double r, double r1, double rc) {
+  if (r < r1) return 1;
+  const double t = (r - r1) / (rc - r1);
+  return 1 - 10 * t * t * t + 15 * t * t * t * t - 6 * t * t * t * t * t;
+}
+
+template <VdwModifier M>
+double lj_value(const LjConstants& k, double c6, double c12, double r) {
+  double v, g;
+  lj_energy_force<M>(k, c6, c12, 1 / (r * r), r, v, g);
+  return v;
+}
+
+TEST(LennardJonesKernel, MatchesGromacsManualDefinitions) {
+  const double c6 = 0.0026173456, c12 = 2.634129e-6, rc = 0.9, r1 = 0.7;
+  const auto none = make_lj_constants(VdwModifier::none, rc, 0);
+  const auto shift = make_lj_constants(VdwModifier::potential_shift, rc, 0);
+  const auto fsw = make_lj_constants(VdwModifier::force_switch, rc, r1);
+  const auto psw = make_lj_constants(VdwModifier::potential_switch, rc, r1);
+  for (double r : {0.25, 0.3, 0.5, 0.69, 0.7, 0.75, 0.8, 0.85, 0.89}) {
+    const double lj = c12 / std::pow(r, 12) - c6 / std::pow(r, 6);
+    EXPECT_NEAR(lj_value<VdwModifier::none>(none, c6, c12, r), lj, 1e-12 * std::abs(lj)) << r;
+    const double shifted = lj - (c12 / std::pow(rc, 12) - c6 / std::pow(rc, 6));
+    EXPECT_NEAR(lj_value<VdwModifier::potential_shift>(shift, c6, c12, r), shifted, 1e-12 * std::abs(lj)) << r;
+    const double fs = c12 * manual_force_switch_potential(12, r, r1, rc) - c6 * manual_force_switch_potential(6, r, r1, rc);
+    EXPECT_NEAR(lj_value<VdwModifier::force_switch>(fsw, c6, c12, r), fs, 1e-11 * std::abs(lj)) << r;
+    const double ps = lj * manual_switch(r, r1, rc);
+    EXPECT_NEAR(lj_value<VdwModifier::potential_switch>(psw, c6, c12, r), ps, 1e-12 * std::abs(lj)) << r;
+  }
+  // The modifiers bring potential (and for the switches the force) to zero at the cut-off.
+  const double r = rc * (1 - 1e-12);
+  double v, g;
+  lj_energy_force<VdwModifier::potential_shift>(shift, c6, c12, 1 / (r * r), r, v, g);
+  EXPECT_NEAR(v, 0, 1e-12);
+  lj_energy_force<VdwModifier::force_switch>(fsw, c6, c12, 1 / (r * r), r, v, g);
+  EXPECT_NEAR(v, 0, 1e-12);
+  EXPECT_NEAR(g, 0, 1e-9);
+  lj_energy_force<VdwModifier::potential_switch>(psw, c6, c12, 1 / (r * r), r, v, g);
+  EXPECT_NEAR(v, 0, 1e-12);
+  EXPECT_NEAR(g, 0, 1e-9);
+}
+
+TEST(LennardJonesKernel, RejectsBadModifierSettings) {
+  EXPECT_THROW(parse_vdw_modifier("shift"), InputError);
+  EXPECT_THROW(make_lj_constants(VdwModifier::potential_switch, 0.9, 0.9), InputError);
+  EXPECT_THROW(make_lj_constants(VdwModifier::force_switch, 0.9, -0.1), InputError);
+}
+
+TEST(ReactionFieldKernel, MatchesGromacsDefinitions) {
+  const double rc = 0.9, f = 138.935458;
+  const auto infinite = make_reaction_field("reaction-field", 1.0, 0.0, rc);
+  EXPECT_DOUBLE_EQ(infinite.k_rf, 1 / (2 * rc * rc * rc));
+  EXPECT_DOUBLE_EQ(infinite.c_rf, 3 / (2 * rc));
+  const auto rf78 = make_reaction_field("reaction-field", 1.0, 78.0, rc);
+  EXPECT_DOUBLE_EQ(rf78.k_rf, 77.0 / (157.0 * rc * rc * rc));
+  EXPECT_DOUBLE_EQ(rf78.c_rf, 1 / rc + rf78.k_rf * rc * rc);
+  // GROMACS's plain cut-off in the Verlet scheme: k_rf = 0, c_rf = 1/rc.
+  const auto cut = make_reaction_field("cutoff", 1.0, 0.0, rc);
+  EXPECT_DOUBLE_EQ(cut.k_rf, 0.0);
+  EXPECT_DOUBLE_EQ(cut.c_rf, 1 / rc);
+  EXPECT_DOUBLE_EQ(cut.prefactor, f);
+  EXPECT_EQ(make_reaction_field("none", 1.0, 0.0, rc).kind, CoulombKind::none);
+  EXPECT_THROW(make_reaction_field("pme", 1.0, 0.0, rc), InputError);
+  EXPECT_THROW(make_reaction_field("reaction-field", 1.0, -2.0, rc), InputError);
+  // V(rc) = 0 for an interacting pair.
+  double v, g;
+  for (const auto& rf : {infinite, rf78, cut}) {
+    rf_energy_force(rf, 1.0, 1 / rc, rc * rc, v, g);
+    EXPECT_NEAR(v, 0, 1e-13);
+  }
+}
+
+// The Coulomb energy of a small system from an O(N²) sum written with the formulas above:
+// interacting pairs f qq (1/r + k r² − c), excluded pairs f qq (k r² − c), self −½ f q² c.
+TEST(NonbondedPairTerm, CoulombIncludesGromacsExclusionAndSelfTerms) {
+  auto [system, q] = testing::water_like_system(10, Vec3(2.0, 2.1, 1.9), 3);
+  for (double eps_rf : {0.0, 78.0}) {
+    const auto config = testing::pair_config("potential-shift", "reaction-field", eps_rf);
+    NonbondedPairTerm term(system, config);
+    const double rc = config.cutoff;
+    const double k = eps_rf == 0 ? 1 / (2 * rc * rc * rc) : (eps_rf - 1) / ((2 * eps_rf + 1) * rc * rc * rc);
+    const double c = 1 / rc + k * rc * rc;
+    const double f = 138.935458;
+    double expected = 0, expected_lj = 0;
+    for (int i = 0; i < system.n_atoms(); ++i) {
+      expected -= 0.5 * f * system.charge[i] * system.charge[i] * c;
+      for (int j = i + 1; j < system.n_atoms(); ++j) {
+        const double r = system.box.minimum_image(q.col(i) - q.col(j)).norm();
+        if (r >= rc) continue;
+        const bool excluded = system.molecule[i] == system.molecule[j];
+        const double qq = f * system.charge[i] * system.charge[j];
+        expected += qq * ((excluded ? 0 : 1 / r) + k * r * r - c);
+        if (!excluded) {
+          const double c6 = system.c6(system.type[i], system.type[j]), c12 = system.c12(system.type[i], system.type[j]);
+          expected_lj += c12 * (std::pow(r, -12) - std::pow(rc, -12)) - c6 * (std::pow(r, -6) - std::pow(rc, -6));
+        }
+      }
+    }
+    const auto result = evaluate(term, q);
+    EXPECT_NEAR(result.energies[0], expected_lj, 1e-12 * std::abs(expected_lj));
+    EXPECT_NEAR(result.energies[1], expected, 1e-12 * std::abs(expected));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Finite differences for every modifier × Coulomb kind.
+
+struct PairCase {
+  std::string modifier, coulomb;
+  double epsilon_rf;
+};
+
+void PrintTo(const PairCase& c, std::ostream* os) { *os << c.modifier << "/" << c.coulomb << "/eps_rf=" << c.epsilon_rf; }
+
+// 12 water-like molecules with no pair within 2e-4 nm of the cut-off, where the energy (LJ none)
+// or the force (potential-shift) jumps and finite differences (steps up to 2e-5 nm) would mislead.
+testing::TestSystem system_away_from_cutoff(const Vec3& box, const Vec3& extent, double cutoff) {
+  for (std::uint64_t seed = 1;; ++seed) {
+    auto t = testing::water_like_system(12, box, seed, extent);
+    double gap = INFINITY;
+    testing::for_each_pair_distance(t.system, t.q, [&](int, int, double r) { gap = std::min(gap, std::abs(r - cutoff)); });
+    if (gap > 2e-4) return t;
+  }
+}
+
+class PairTermDerivatives : public ::testing::TestWithParam<PairCase> {};
+
+TEST_P(PairTermDerivatives, ForcesAndHessianVectorMatchFiniteDifferences) {
+  const PairCase c = GetParam();
+  const auto config = testing::pair_config(c.modifier, c.coulomb, c.epsilon_rf);
+  auto [system, q] = system_away_from_cutoff(Vec3(2.0, 2.0, 2.0), Vec3::Zero(), config.cutoff);
+  int in_switch_region = 0;
+  testing::for_each_pair_distance(system, q, [&](int, int, double r) {
+    if (r >= 0.7 && r < config.cutoff) ++in_switch_region;
+  });
+  ASSERT_GT(in_switch_region, 50);
+  NonbondedPairTerm term(system, config);
+  expect_derivatives_match(term, q, c.modifier + "/" + c.coulomb);
+}
+
+TEST_P(PairTermDerivatives, NonPeriodicSystem) {
+  const PairCase c = GetParam();
+  const auto config = testing::pair_config(c.modifier, c.coulomb, c.epsilon_rf);
+  auto [system, q] = system_away_from_cutoff(Vec3::Zero(), Vec3(1.6, 1.4, 1.5), config.cutoff);
+  NonbondedPairTerm term(system, config);
+  expect_derivatives_match(term, q, c.modifier + "/" + c.coulomb + " non-periodic");
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    AllModifiersAndCoulombKinds, PairTermDerivatives,
+    ::testing::Values(PairCase{"none", "reaction-field", 0.0}, PairCase{"potential-shift", "reaction-field", 0.0},
+                      PairCase{"force-switch", "reaction-field", 0.0}, PairCase{"potential-switch", "reaction-field", 0.0},
+                      PairCase{"potential-shift", "reaction-field", 78.0}, PairCase{"potential-switch", "reaction-field", 78.0},
+                      PairCase{"potential-shift", "cutoff", 0.0}, PairCase{"force-switch", "cutoff", 0.0},
+                      PairCase{"none", "none", 0.0}, PairCase{"potential-shift", "none", 0.0},
+                      PairCase{"force-switch", "none", 0.0}, PairCase{"potential-switch", "none", 0.0}),
+    [](const auto& info) {
+      std::string name = info.param.modifier + "_" + info.param.coulomb + "_eps" + std::to_string(int(info.param.epsilon_rf));
+      for (char& ch : name)
+        if (ch == '-') ch = '_';
+      return name;
+    });
+
+TEST(HarmonicBondTerm, DerivativesMatchFiniteDifferences) {
+  auto [system, q] = testing::water_like_system(6, Vec3(2.0, 2.0, 2.0), 21);
+  // Molecules straddling the box edge exercise the minimum image.
+  q.row(0).array() += 1.95;
+  HarmonicBondTerm term(system.bonds, system.box);
+  EXPECT_EQ(term.energy_names(), std::vector<std::string>{"bonds"});
+  expect_derivatives_match(term, q, "bonds");
+  double expected = 0;
+  for (const Bond& b : system.bonds) {
+    const double r = system.box.minimum_image(q.col(b.i) - q.col(b.j)).norm();
+    expected += 0.5 * b.k * (r - b.length) * (r - b.length);
+  }
+  EXPECT_NEAR(evaluate(term, q).energy, expected, 1e-12 * expected);
+}
+
+TEST(HarmonicAngleTerm, DerivativesMatchFiniteDifferences) {
+  auto [system, q] = testing::water_like_system(6, Vec3(2.0, 2.0, 2.0), 22);
+  q.row(1).array() += 1.95;
+  HarmonicAngleTerm term(system.angles, system.box);
+  EXPECT_EQ(term.energy_names(), std::vector<std::string>{"angles"});
+  expect_derivatives_match(term, q, "angles");
+  double expected = 0;
+  for (const Angle& a : system.angles) {
+    const Vec3 u = system.box.minimum_image(q.col(a.i) - q.col(a.j)), v = system.box.minimum_image(q.col(a.k) - q.col(a.j));
+    const double theta = std::acos(u.dot(v) / (u.norm() * v.norm()));
+    expected += 0.5 * a.force_constant * (theta - a.theta0) * (theta - a.theta0);
+  }
+  EXPECT_NEAR(evaluate(term, q).energy, expected, 1e-10 * expected);
+}
+
+TEST(HarmonicAngleTerm, NearlyStraightAngle) {
+  System system;
+  system.box.length = Vec3::Zero();
+  Coords q(3, 3);
+  q << 0.1, 0.0, -0.1, 0.0, 0.0, 0.003, 0.0, 0.0, 0.0;
+  HarmonicAngleTerm term({{0, 1, 2, 2.0, 400.0}}, system.box);
+  expect_derivatives_match(term, q, "angle near 180 degrees");
+}
+
+TEST(ForceFieldRegistry, BuildsAllTermsWithTheirEnergyNames) {
+  auto [system, q] = testing::water_like_system(12, Vec3(2.0, 2.0, 2.0), 11);
+  auto field = make_force_field(system, testing::pair_config("potential-switch", "reaction-field", 78.0));
+  EXPECT_EQ(field->energy_names(), (std::vector<std::string>{"lj", "coulomb", "bonds", "angles"}));
+  Forces forces;
+  field->compute(q, forces);
+  double sum = 0;
+  for (double e : forces.terms) sum += e;
+  EXPECT_DOUBLE_EQ(forces.potential, sum);
+  for (double e : forces.terms) EXPECT_NE(e, 0.0);
+  // The whole field obeys the same derivative checks as its terms.
+  Coords hu;
+  const Coords u = random_direction(system.n_atoms(), 3);
+  field->hessian_vector(q, u, hu);
+  Coords expected = Coords::Zero(3, q.cols());
+  for (const auto& term : field->terms()) expected += hessian_vector(*term, q, u);
+  EXPECT_LT(relative_difference(hu, expected), 1e-14);
+  EXPECT_EQ(field->neighbor_rebuilds(), 1);
+}
+
+TEST(ForceFieldRegistry, RejectsBadConfiguration) {
+  auto [system, q] = testing::water_like_system(4, Vec3(2.0, 2.0, 2.0), 1);
+  EXPECT_THROW(make_force_field(system, testing::pair_config("switch", "reaction-field")), InputError);
+  EXPECT_THROW(make_force_field(system, testing::pair_config("potential-shift", "pme")), InputError);
+  EXPECT_THROW(make_force_field(system, testing::pair_config("potential-switch", "reaction-field", 0, 0.9, 1.0)),
+               InputError);
+  // The box must hold twice the cut-off.
+  EXPECT_THROW(make_force_field(system, testing::pair_config("potential-shift", "reaction-field", 0, 1.1)), InputError);
+}
+
+}  // namespace
+}  // namespace vimd

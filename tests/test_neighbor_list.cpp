@@ -1,0 +1,281 @@
+// The cluster-pair Verlet list against its brute-force twin: an O(N²) minimum-image pair sum with
+// the same kernels must give the same energies, forces and Hessian–vector products (1e-12) over
+// many displaced configurations, including displacements just below and just above half the skin,
+// for periodic, small, partly periodic and non-periodic boxes and for unwrapped coordinates.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <set>
+#include <tuple>
+
+#include "engine/errors.hpp"
+#include "engine/neighbor_list.hpp"
+#include "forcefields/nonbonded_pair_term.hpp"
+#include "test_ff_systems.hpp"
+
+namespace vimd {
+namespace {
+
+using testing::relative_difference;
+
+struct Reference {
+  double lj = 0, coulomb = 0;
+  Coords f, hu;
+};
+
+template <VdwModifier M>
+Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u) {
+  const LjConstants& lj = term.lj_constants();
+  const ReactionField& rf = term.reaction_field();
+  const double rc2 = lj.cutoff * lj.cutoff;
+  const bool coulomb = rf.kind == CoulombKind::reaction_field;
+  Reference ref;
+  ref.f.setZero(3, q.cols());
+  ref.hu.setZero(3, q.cols());
+  for (int i = 0; i < q.cols(); ++i) {
+    if (coulomb) ref.coulomb += rf_self_energy(rf, s.charge[i] * s.charge[i]);
+    for (int j = i + 1; j < q.cols(); ++j) {
+      const Vec3 d = s.box.minimum_image(q.col(i) - q.col(j));
+      const double r2 = d.squaredNorm();
+      if (r2 >= rc2) continue;
+      const double qq = rf.prefactor * s.charge[i] * s.charge[j];
+      const Vec3 du = u.col(i) - u.col(j);
+      const bool excluded = std::binary_search(s.exclusions[i].begin(), s.exclusions[i].end(), j);
+      double v = 0, g = 0, a = 0, b = 0;
+      if (excluded) {
+        if (!coulomb) continue;
+        rf_excluded_energy_force(rf, qq, r2, v, g);
+        a = rf_excluded_hessian(rf, qq);
+        ref.coulomb += v;
+      } else {
+        const double r = std::sqrt(r2);
+        lj_energy_force<M>(lj, s.c6(s.type[i], s.type[j]), s.c12(s.type[i], s.type[j]), 1 / r2, r, v, g);
+        lj_hessian<M>(lj, s.c6(s.type[i], s.type[j]), s.c12(s.type[i], s.type[j]), 1 / r2, r, a, b);
+        ref.lj += v;
+        if (coulomb) {
+          double vc, gc, ac, bc;
+          rf_energy_force(rf, qq, 1 / r, r2, vc, gc);
+          rf_hessian(rf, qq, 1 / r, ac, bc);
+          ref.coulomb += vc;
+          g += gc;
+          a += ac;
+          b += bc;
+        }
+      }
+      ref.f.col(i) += g * d;
+      ref.f.col(j) -= g * d;
+      const Vec3 h = a * du + b * d.dot(du) * d;
+      ref.hu.col(i) += h;
+      ref.hu.col(j) -= h;
+    }
+  }
+  return ref;
+}
+
+Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u) {
+  switch (term.vdw_modifier()) {
+    case VdwModifier::none: return brute_force<VdwModifier::none>(term, s, q, u);
+    case VdwModifier::potential_shift: return brute_force<VdwModifier::potential_shift>(term, s, q, u);
+    case VdwModifier::force_switch: return brute_force<VdwModifier::force_switch>(term, s, q, u);
+    case VdwModifier::potential_switch: return brute_force<VdwModifier::potential_switch>(term, s, q, u);
+  }
+  return {};
+}
+
+Coords random_vectors(int n, std::mt19937_64& rng, double length) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Coords d(3, n);
+  for (int i = 0; i < n; ++i) {
+    Vec3 v(normal(rng), normal(rng), normal(rng));
+    d.col(i) = length * v.normalized();
+  }
+  return d;
+}
+
+void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q, const std::string& what) {
+  std::mt19937_64 rng(99);
+  const Coords u = random_vectors(static_cast<int>(q.cols()), rng, 1.0);
+  const Reference ref = brute_force(term, s, q, u);
+  const auto got = testing::evaluate(term, q);
+  const Coords hu = testing::hessian_vector(term, q, u);
+  EXPECT_NEAR(got.energies[0], ref.lj, 1e-12 * std::abs(ref.lj)) << what;
+  EXPECT_NEAR(got.energies[1], ref.coulomb, 1e-12 * std::abs(ref.coulomb)) << what;
+  EXPECT_LT(relative_difference(got.f, ref.f), 1e-12) << what;
+  EXPECT_LT(relative_difference(hu, ref.hu), 1e-12) << what;
+}
+
+const char* const kModifiers[] = {"none", "potential-shift", "force-switch", "potential-switch"};
+
+TEST(NeighborList, MatchesBruteForceOverDisplacedConfigurations) {
+  auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 17);
+  for (const char* modifier : kModifiers) {
+    const auto config = testing::pair_config(modifier, "reaction-field", 0.0);
+    NonbondedPairTerm term(system, config);
+    const double half_skin = 0.5 * config.neighbor_skin;
+    std::mt19937_64 rng(5);
+    Coords q = q0;
+    Coords q_built = q0;
+    long expected_builds = 1;
+    expect_matches_brute_force(term, system, q, std::string(modifier) + " start");
+    // Every atom moves by exactly this fraction of the half skin relative to the previous
+    // configuration; the list must be rebuilt exactly when someone has gone further than skin/2.
+    for (double fraction : {0.3, 0.6, 0.999, 0.4, 0.8, 1.001, 0.2, 1.2, 0.95, 0.05, 0.5, 1.5, 0.99}) {
+      q += random_vectors(static_cast<int>(q.cols()), rng, fraction * half_skin);
+      double max_moved = 0;
+      for (int i = 0; i < q.cols(); ++i) max_moved = std::max(max_moved, (q.col(i) - q_built.col(i)).norm());
+      if (max_moved > half_skin) {
+        ++expected_builds;
+        q_built = q;
+      }
+      expect_matches_brute_force(term, system, q, std::string(modifier) + " step fraction " + std::to_string(fraction));
+      EXPECT_EQ(term.rebuilds(), expected_builds) << modifier << " after fraction " << fraction;
+    }
+    EXPECT_GT(expected_builds, 3);
+  }
+}
+
+// Pairs that were just inside cut-off + skin at the build are pulled together by almost skin/2
+// per atom, so they end up inside the cut-off without a rebuild: they must still be counted.
+TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheBuffer) {
+  auto [system, q] = testing::water_like_system(500, Vec3(3.0, 3.0, 3.0), 23);
+  for (const char* coulomb : {"reaction-field", "none"}) {
+    const auto config = testing::pair_config("potential-shift", coulomb);
+    NonbondedPairTerm term(system, config);
+    testing::evaluate(term, q);
+    const double rc = config.cutoff, skin = config.neighbor_skin;
+    std::vector<bool> moved(q.cols(), false);
+    Coords target = q;
+    int pulled = 0;
+    testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
+      if (r < rc + 0.98 * skin || r >= rc + skin || moved[i] || moved[j]) return;
+      const Vec3 d = system.box.minimum_image(q.col(i) - q.col(j)) / r;
+      target.col(i) -= 0.4999 * skin * d;
+      target.col(j) += 0.4999 * skin * d;
+      moved[i] = moved[j] = true;
+      ++pulled;
+    });
+    ASSERT_GT(pulled, 20);
+    int now_inside = 0;
+    testing::for_each_pair_distance(system, target, [&](int i, int j, double r) {
+      if (moved[i] && moved[j] && r < rc) ++now_inside;
+    });
+    ASSERT_GT(now_inside, 20);
+    expect_matches_brute_force(term, system, target, std::string("pulled pairs, ") + coulomb);
+    EXPECT_EQ(term.rebuilds(), 1);
+  }
+}
+
+TEST(NeighborList, UnwrappedCoordinatesGiveTheSameResult) {
+  auto [system, q] = testing::water_like_system(300, Vec3(2.7, 2.5, 2.6), 31);
+  const auto config = testing::pair_config("potential-switch", "reaction-field", 78.0);
+  NonbondedPairTerm wrapped_term(system, config), unwrapped_term(system, config);
+  // Whole molecules and single atoms several boxes away, as long runs produce them.
+  std::mt19937_64 rng(8);
+  std::uniform_int_distribution<int> image(-3, 3);
+  Coords unwrapped = q;
+  for (int i = 0; i < q.cols(); ++i)
+    for (int k = 0; k < 3; ++k) unwrapped(k, i) += image(rng) * system.box.length[k];
+  const auto a = testing::evaluate(wrapped_term, q);
+  const auto b = testing::evaluate(unwrapped_term, unwrapped);
+  EXPECT_NEAR(a.energies[0], b.energies[0], 1e-12 * std::abs(a.energies[0]));
+  EXPECT_NEAR(a.energies[1], b.energies[1], 1e-12 * std::abs(a.energies[1]));
+  EXPECT_LT(relative_difference(b.f, a.f), 1e-12);
+  expect_matches_brute_force(unwrapped_term, system, unwrapped, "unwrapped");
+  // Moving on from unwrapped positions keeps working across rebuilds.
+  Coords moved = unwrapped + random_vectors(static_cast<int>(q.cols()), rng, 0.08);
+  expect_matches_brute_force(unwrapped_term, system, moved, "unwrapped, moved");
+  EXPECT_EQ(unwrapped_term.rebuilds(), 2);
+}
+
+TEST(NeighborList, SmallPartlyPeriodicAndNonPeriodicBoxes) {
+  struct Case {
+    const char* name;
+    Vec3 box, extent;
+    int molecules;
+  };
+  const Case cases[] = {
+      {"box just above twice the cut-off", Vec3(1.81, 1.85, 1.9), Vec3::Zero(), 40},
+      {"thin slab, z not periodic", Vec3(2.2, 2.3, 0.0), Vec3(0, 0, 1.2), 60},
+      {"non-periodic cluster", Vec3::Zero(), Vec3(2.5, 2.0, 2.2), 120},
+      {"single molecule", Vec3::Zero(), Vec3(0.1, 0.1, 0.1), 1},
+      {"elongated box", Vec3(6.0, 1.9, 1.9), Vec3::Zero(), 150},
+  };
+  for (const Case& c : cases)
+    for (const char* modifier : kModifiers) {
+      auto [system, q] = testing::water_like_system(c.molecules, c.box, 41, c.extent);
+      NonbondedPairTerm term(system, testing::pair_config(modifier, "reaction-field", 0.0));
+      const std::string what = std::string(c.name) + ", " + modifier;
+      expect_matches_brute_force(term, system, q, what);
+      std::mt19937_64 rng(3);
+      expect_matches_brute_force(term, system, q + random_vectors(static_cast<int>(q.cols()), rng, 0.049), what + " moved");
+      expect_matches_brute_force(term, system, q + random_vectors(static_cast<int>(q.cols()), rng, 0.2), what + " far");
+    }
+}
+
+// Structure: every atom pair image within cut-off + skin at the build is listed exactly once,
+// excluded pairs are absent from the cluster pairs and present in excluded_pairs().
+TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
+  for (const Vec3& box : {Vec3(2.4, 2.5, 2.6), Vec3(1.85, 1.85, 1.85), Vec3(0.0, 0.0, 0.0)}) {
+    auto [system, q] = testing::water_like_system(150, box, 51, Vec3(2.0, 2.0, 2.0));
+    NeighborList list(system.box, 0.9, 0.1, system.exclusions);
+    list.build(q);
+    const double range = 1.0;
+    std::vector<double> x(list.n_slots()), y(list.n_slots()), z(list.n_slots());
+    list.pack_positions(q, x.data(), y.data(), z.data());
+    // (i, j, image of j relative to i) with i < j → times listed
+    std::map<std::tuple<int, int, int, int, int>, int> listed;
+    for (int h = 0; h < list.n_halves(); ++h)
+      for (int e = list.half_start()[h]; e < list.half_start()[h + 1]; ++e) {
+        const auto& entry = list.entries()[e];
+        for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
+          for (int jj = 0; jj < NeighborList::kClusterSize; ++jj) {
+            if (!((entry.mask >> (ii * NeighborList::kClusterSize + jj)) & 1u)) continue;
+            const int sa = h * NeighborList::kHalfSize + ii, sb = entry.j_cluster * NeighborList::kClusterSize + jj;
+            const int a = list.slot_atom()[sa], b = list.slot_atom()[sb];
+            ASSERT_GE(a, 0);
+            ASSERT_GE(b, 0);
+            ASSERT_NE(a, b);
+            const Vec3 d = Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) - list.shift_vectors()[entry.shift];
+            int n[3];
+            for (int k = 0; k < 3; ++k)
+              n[k] = box[k] > 0 ? static_cast<int>(std::lround((q(k, a) - q(k, b) - d[k]) / box[k])) : 0;
+            if (a < b)
+              ++listed[{a, b, n[0], n[1], n[2]}];
+            else
+              ++listed[{b, a, -n[0], -n[1], -n[2]}];
+          }
+      }
+    for (const auto& [key, count] : listed) ASSERT_EQ(count, 1) << "pair listed twice";
+    int in_range = 0;
+    const int m[3] = {box[0] > 0, box[1] > 0, box[2] > 0};
+    for (int i = 0; i < q.cols(); ++i)
+      for (int j = i + 1; j < q.cols(); ++j)
+        for (int nx = -m[0]; nx <= m[0]; ++nx)
+          for (int ny = -m[1]; ny <= m[1]; ++ny)
+            for (int nz = -m[2]; nz <= m[2]; ++nz) {
+              const Vec3 d = q.col(i) - q.col(j) - Vec3(nx * box[0], ny * box[1], nz * box[2]);
+              const bool is_listed = listed.count({i, j, nx, ny, nz}) > 0;
+              if (system.molecule[i] == system.molecule[j]) {
+                EXPECT_FALSE(is_listed) << "excluded pair " << i << "," << j << " listed";
+              } else if (d.norm() < range) {
+                ++in_range;
+                EXPECT_TRUE(is_listed) << "pair " << i << "," << j << " at " << d.norm() << " missing";
+              }
+            }
+    EXPECT_GT(in_range, 1000);
+    int excluded_pairs = 0;
+    for (const auto& e : system.exclusions) excluded_pairs += static_cast<int>(e.size());
+    EXPECT_EQ(static_cast<int>(list.excluded_pairs().size()), excluded_pairs / 2);
+  }
+}
+
+TEST(NeighborList, RejectsBoxesShorterThanTwiceTheCutoff) {
+  Box box;
+  box.length = Vec3(1.7, 3.0, 3.0);
+  EXPECT_THROW(NeighborList(box, 0.9, 0.1, {}), InputError);
+}
+
+}  // namespace
+}  // namespace vimd
