@@ -1,0 +1,203 @@
+"""What the study runs: systems, force fields, integrator variants, time steps and run lengths for
+the full study and for --quick. Everything that decides a number in the report is set here."""
+import dataclasses
+import pathlib
+import tomllib
+
+from gmx_common import ROOT
+
+FS = 0.001  # ps
+
+
+@dataclasses.dataclass(frozen=True)
+class System:
+    name: str
+    forcefield: dict       # the vimd [forcefield] table (nm); GROMACS gets the same settings
+    note: str              # what the force field is and why
+
+    @property
+    def directory(self):
+        return ROOT / "inputs" / self.name
+
+    @property
+    def structure(self):
+        return self.directory / "conf.gro"
+
+    @property
+    def topology(self):
+        return self.directory / "topol.top"
+
+    @property
+    def atoms(self):
+        return int(self.structure.read_text().splitlines()[1])
+
+
+def own_forcefield(name):
+    """The [forcefield] table of an input's own run file."""
+    with open(ROOT / "inputs" / name / "run.toml", "rb") as f:
+        return tomllib.load(f)["forcefield"]
+
+
+# Smooth water: LJ switched to zero between 0.7 and 0.9 nm (C2 potential) and the inputs' own
+# reaction field with epsilon_rf = infinity, whose force also vanishes at the cut-off (with
+# epsilon_rf = 78 the Coulomb force jumps by ~1.3 % there and the energy error would measure the
+# cut-off, not the integrator).
+SMOOTH_WATER = dict(cutoff=0.9, vdw_modifier="potential-switch", vdw_switch=0.7,
+                    coulomb="reaction-field", epsilon_rf=0.0)
+SMOOTH_NOTE = ("LJ potential-switch 0.7-0.9 nm, reaction field eps_rf = infinity (the inputs' own RF "
+               "setting; force continuous at the 0.9 nm cut-off)")
+
+
+def water(name, skin):
+    return System(name, SMOOTH_WATER | {"neighbor_skin": skin}, SMOOTH_NOTE + f", neighbour skin {skin} nm")
+
+
+SYSTEMS = {
+    "water900": water("water900", 0.1),
+    # cut-off + skin must stay below half of the 1.864 nm box (inputs/README.md)
+    "water216": water("water216", 0.03),
+    "polymer": System("polymer", own_forcefield("polymer"),
+                      "the input's own run file: WCA (LJ cut at 2^(1/6) sigma, potential-shift, force zero at "
+                      "the cut-off), no charges, rigid bonds, weak harmonic angles"),
+    "cluster8": System("cluster8", own_forcefield("cluster8"),
+                       "the input's own run file: every pair far inside the 1.5 nm cut-off, so LJ "
+                       "(potential-shift = constant) + RF (eps_rf = infinity) is analytic along the run"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    key: str          # file-name-safe identifier
+    label: str        # as shown in tables and legends
+    integrator: dict  # [integrator] keys besides dt and steps
+    order: int        # nominal order of accuracy
+    color: str
+    linestyle: str = "-"
+    marker: str = "o"
+
+    @property
+    def family(self):
+        return self.integrator["type"]
+
+
+BIASES = {"b01": ([0.0, 1.0], "[0,1]", "-"), "bsym": ([-0.5, 0.5], "[-1/2,1/2]", "--")}
+# Built-in tableaus of the engine (integrators/tableau.cpp) with their orders.
+TABLEAU_ORDERS = {"euler": 1, "heun2": 2, "midpoint": 2, "rk3": 3, "rk4": 4, "rk38": 4, "rk6": 6}
+TABLEAU_COLORS = {"euler": "#8c564b", "heun2": "#1f77b4", "midpoint": "#17becf", "rk3": "#bcbd22",
+                  "rk4": "#2ca02c", "rk38": "#98df8a", "rk6": "#d62728"}
+
+RATTLE = Variant("rattle", "rattle", {"type": "rattle"}, 2, "black", "-", "s")
+SHAKE = Variant("shake", "shake", {"type": "shake"}, 2, "0.55", "-", "D")
+
+
+def vi(method, bias_key):
+    bias, shown, style = BIASES[bias_key]
+    return Variant(f"vi-{method}-{bias_key}", f"vi {method} {shown}",
+                   {"type": "vi", "method": method, "bias": bias}, TABLEAU_ORDERS[method],
+                   TABLEAU_COLORS[method], style, "o" if bias_key == "b01" else "^")
+
+
+def rk(method):
+    return Variant(f"rk-{method}", f"rk {method} (projected)", {"type": "rk", "method": method},
+                   TABLEAU_ORDERS[method], "#9467bd" if method == "rk4" else TABLEAU_COLORS[method], ":", "v")
+
+
+SCAN_VARIANTS = [RATTLE, SHAKE] + [vi(m, b) for m in ("heun2", "rk4", "rk6") for b in BIASES] + [rk("rk4")]
+LONG_VARIANTS = [vi("rk4", "b01"), RATTLE, rk("rk4")]
+
+
+def order_variants(tableaus):
+    return [RATTLE, SHAKE] + [vi(m, b) for m in tableaus for b in BIASES] + [rk(m) for m in tableaus]
+
+
+@dataclasses.dataclass(frozen=True)
+class GromacsVariant:
+    key: str
+    label: str
+    integrator: str   # GROMACS integrator
+    color: str
+    linestyle: str
+    marker: str
+
+
+GMX_VARIANTS = [GromacsVariant("gmx-md-vv", "gmx_d md-vv + SETTLE", "md-vv", "#ff7f0e", "-.", "P"),
+                GromacsVariant("gmx-md", "gmx_d md (leap-frog) + SETTLE", "md", "#e6a157", "-.", "X")]
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    quick: bool
+    scan_systems: tuple          # systems of the time-step scan (section 1-2)
+    scan_dts: dict               # system -> time steps (ps), tried in order until unstable
+    scan_ps: dict                # system -> simulated time per scan run (ps)
+    gromacs_system: str          # where the GROMACS reference points are computed
+    constraint_tolerance: float
+    order_system: str
+    order_tableaus: tuple
+    order_dts: tuple
+    order_ps: float
+    order_reference_dt: float
+    order_tolerance: float       # solver and constraint tolerance of the order study
+    long_system: str
+    long_dt: float
+    long_ps: float
+    long_frame_ps: float         # trajectory frame interval of the long runs (MDAnalysis)
+    gromacs_traj_ps: float       # length of GROMACS's trajectory for the MDAnalysis comparison
+    stability_fraction: float = 0.01   # max |E(t) - E(0)| allowed, as a fraction of <E_kin>
+
+
+FULL = Plan(
+    quick=False,
+    scan_systems=("water900", "polymer"),
+    scan_dts={"water900": tuple(x * FS for x in (0.5, 1, 2, 3, 4, 5, 6, 7, 8)),
+              # the melt's own step is 10 fs (inputs/README.md); GROMACS drifts strongly at 20 fs
+              "polymer": tuple(x * FS for x in (2.5, 5, 10, 15, 20, 30, 40))},
+    scan_ps={"water900": 2.0, "polymer": 10.0},
+    gromacs_system="water900",
+    constraint_tolerance=1e-10,
+    order_system="cluster8",
+    order_tableaus=tuple(TABLEAU_ORDERS),
+    order_dts=tuple(x * FS for x in (0.25, 0.5, 1, 2, 4)),
+    order_ps=0.2,
+    order_reference_dt=0.05 * FS,
+    order_tolerance=1e-12,
+    long_system="water216",
+    long_dt=2 * FS,
+    long_ps=100.0,
+    long_frame_ps=0.5,
+    gromacs_traj_ps=100.0,
+)
+
+QUICK = Plan(
+    quick=True,
+    scan_systems=("water900", "polymer"),
+    scan_dts={"water900": tuple(x * FS for x in (1, 2, 4)), "polymer": tuple(x * FS for x in (5, 10, 20))},
+    scan_ps={"water900": 0.1, "polymer": 0.4},
+    gromacs_system="water900",
+    constraint_tolerance=1e-10,
+    order_system="cluster8",
+    order_tableaus=("heun2", "rk4", "rk6"),
+    order_dts=tuple(x * FS for x in (0.5, 1, 2)),
+    order_ps=0.05,
+    order_reference_dt=0.1 * FS,
+    order_tolerance=1e-12,
+    long_system="water216",
+    long_dt=2 * FS,
+    long_ps=2.0,
+    long_frame_ps=0.1,
+    gromacs_traj_ps=2.0,
+)
+
+
+def fs(dt):
+    """A time step in fs as text: 0.5, 2, 2.5."""
+    return f"{dt / FS:g}"
+
+
+def relative(path):
+    """A path as the report shows it: relative to the repository when inside it."""
+    path = pathlib.Path(path).resolve()
+    try:
+        return str(path.relative_to(ROOT))
+    except ValueError:
+        return str(path)
