@@ -14,7 +14,7 @@ namespace vimd {
 
 class Constraints {
  public:
-  Constraints() = default;
+  Constraints();
   Constraints(std::vector<Constraint> list, int n_atoms, Box box);
   ~Constraints();
   Constraints(Constraints&&) noexcept;
@@ -45,13 +45,15 @@ class Constraints {
 
   // S = G(q_left) diag(w) G(q_right)ᵀ with w per atom (inverse masses, or ones), factorised
   // once per coupled cluster of constraints. Reusable storage: factorize into the same object.
+  // Passing the same Coords object as q_left and q_right marks S symmetric: chain-sized clusters
+  // then use a sparse LDLᵀ instead of a sparse LU.
   class Factorization {
    public:
     Factorization();
     ~Factorization();
     Factorization(Factorization&&) noexcept;
     Factorization& operator=(Factorization&&) noexcept;
-    // rhs ← S⁻¹ rhs
+    // rhs ← S⁻¹ rhs (uses internal buffers: one solve at a time per Factorization)
     void solve(Eigen::VectorXd& rhs) const;
 
    private:
@@ -62,9 +64,12 @@ class Constraints {
   void factorize(const Coords& q_left, const Coords& q_right, const Eigen::VectorXd& w, Factorization& out) const;
 
   // SHAKE/RATTLE position stage: q ← q + diag(w) G(q_ref)ᵀ λ with λ chosen so that every
-  // constraint holds to |g_a| ≤ tolerance·d_a². Returns the iterations taken; throws
-  // ConvergenceError(step, iterations, worst residual, worst constraint) when it cannot.
-  // lambda_out (optional) receives the accumulated multipliers.
+  // constraint holds to a relative deviation | |r_a| − d_a | / d_a ≤ tolerance (the measure of
+  // max_relative_deviation). Newton on λ per cluster (exact Jacobian G(q) W G(q_ref)ᵀ for small
+  // and dense clusters; chains start from a factorisation of the symmetric S(q_ref)). Returns the
+  // iterations taken (maximum over clusters); throws ConvergenceError(step, iterations, worst
+  // relative deviation, worst constraint with its 1-based atoms) when it cannot. lambda_out
+  // (optional) receives the accumulated multipliers. An empty w means all ones.
   int solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance, long step,
                       int max_iterations = 500, Eigen::VectorXd* lambda_out = nullptr) const;
   // v ← v − diag(w) Gᵀ S⁻¹ G v at q: the W-orthogonal projection onto the tangent space
@@ -80,6 +85,14 @@ class Constraints {
   int n_atoms_ = 0;
   Box box_;
   std::vector<std::vector<int>> clusters_;
+  // Cluster-ordered copy of the list with per-cluster solver patterns; shared with the
+  // Factorizations made from it, so they stay valid when this object moves.
+  struct Layout;
+  std::shared_ptr<const Layout> layout_;
+  // Scratch for solve_positions / project_velocities, reused across calls so a step does not
+  // allocate. Those two methods must therefore not run concurrently on the same object.
+  struct Workspace;
+  std::unique_ptr<Workspace> work_;
 };
 
 }  // namespace vimd

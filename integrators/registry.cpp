@@ -1,14 +1,45 @@
 #include "integrators/registry.hpp"
 
 #include "engine/errors.hpp"
+#include "integrators/rattle.hpp"
+#include "integrators/shake.hpp"
+#include "integrators/verlet.hpp"
 
 namespace vimd {
 
-// Placeholder until the integrators land (owner: integrators helper).
-std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
-  throw InputError("", 0, "unknown integrator type '" + config.type + "'");
+namespace {
+
+template <class T>
+std::unique_ptr<Integrator> build(const IntegratorConfig& config) {
+  return std::make_unique<T>(config);
 }
 
-std::vector<std::string> integrator_names() { return {}; }
+struct Entry {
+  const char* name;
+  std::unique_ptr<Integrator> (*make)(const IntegratorConfig&);
+};
+
+// One line per integrator; make_integrator and integrator_names both read this table.
+constexpr Entry kIntegrators[] = {
+    {"verlet", build<VelocityVerlet>},
+    {"shake", build<Shake>},
+    {"rattle", build<Rattle>},
+};
+
+}  // namespace
+
+std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
+  for (const Entry& e : kIntegrators)
+    if (config.type == e.name) return e.make(config);
+  std::string valid;
+  for (const Entry& e : kIntegrators) valid += std::string(valid.empty() ? "" : ", ") + "\"" + e.name + "\"";
+  throw InputError("[integrator]", 0, "unknown type \"" + config.type + "\"; valid types: " + valid);
+}
+
+std::vector<std::string> integrator_names() {
+  std::vector<std::string> names;
+  for (const Entry& e : kIntegrators) names.emplace_back(e.name);
+  return names;
+}
 
 }  // namespace vimd

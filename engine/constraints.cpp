@@ -1,0 +1,733 @@
+#include "engine/constraints.hpp"
+
+#include <Eigen/LU>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <Eigen/SparseLU>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+
+namespace {
+
+// Clusters of up to three constraints (rigid water, single bonds) use padded 3×3 kernels with
+// everything on the stack; up to kDenseMax a dense LU; beyond that (whole chains) a sparse one.
+constexpr int kSmallMax = 3;
+constexpr int kDenseMax = 16;
+// Sparse clusters iterate with one factorisation of the symmetric S(q_ref) (a chord method);
+// when the deviation shrinks by less than this factor per iteration they refactorise with the
+// exact Newton matrix G(q) W G(q_ref)ᵀ.
+constexpr double kChordRate = 0.25;
+// OpenMP only pays off above this many constraints.
+constexpr int kParallelMin = 256;
+
+enum class Kind { Small, Dense, Sparse };
+
+// | |r| − d | / d from r². The cancellation in |r| − d costs nothing that matters: its absolute
+// error is a few ulp of d, i.e. 1e-16, far below any usable tolerance.
+inline double relative_deviation(double r2, double d) { return std::abs(std::sqrt(r2) - d) / d; }
+
+// max over k of f(k); NaN if any f(k) is NaN (so a blown-up state is never reported as fine).
+template <class F>
+double parallel_max(int n, F f) {
+  double result = 0;
+#pragma omp parallel if (n > kParallelMin)
+  {
+    double local = 0;
+#pragma omp for schedule(static) nowait
+    for (int k = 0; k < n; ++k) {
+      const double x = f(k);
+      if (x > local || std::isnan(x)) local = std::isnan(local) ? local : x;
+    }
+#pragma omp critical(vimd_constraints_max)
+    if (local > result || std::isnan(local)) result = std::isnan(result) ? result : local;
+  }
+  return result;
+}
+
+// How one cluster's position solve ended.
+struct ClusterOutcome {
+  int iterations = 0;
+  int worst = 0;  // position of the worst constraint
+  double deviation = 0;
+  bool failed = false, singular = false;
+};
+
+std::string format_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3e", x);
+  return buf;
+}
+
+}  // namespace
+
+struct Constraints::Layout {
+  struct Cluster {
+    int begin, end;  // range in the cluster-ordered arrays below
+    Kind kind;
+    int slot;  // index into the small or dynamic storage of a Factorization
+    int size() const { return end - begin; }
+  };
+  // Two constraints a ≠ b (local indices) that share `atom`; sign = s_a(atom) s_b(atom) with
+  // s = +1 at the constraint's first atom and −1 at its second.
+  struct Coupling {
+    int a, b, atom;
+    double sign;
+  };
+  struct Dynamic {
+    std::vector<Coupling> couplings;
+    // Sparse clusters: the structure of S (values unused) and where each entry lives in it.
+    Eigen::SparseMatrix<double> pattern;
+    std::vector<int> diagonal_position, coupling_position;
+  };
+
+  Box box;
+  int n_atoms = 0;
+  // The constraint list reordered so that every cluster is contiguous.
+  std::vector<int> atom_i, atom_j, original;
+  std::vector<double> length;
+  std::vector<Cluster> clusters;
+  std::vector<Dynamic> dynamic;
+  int n_small = 0;
+  Eigen::VectorXd ones;  // the weights when the caller passes none
+
+  Vec3 bond(const Coords& q, int p) const { return box.minimum_image(q.col(atom_i[p]) - q.col(atom_j[p])); }
+  // Entry factor of S = G W Gᵀ for positions p, r (p == r gives w_i + w_j).
+  double coefficient(int p, int r, const double* w) const {
+    double c = 0;
+    if (atom_i[p] == atom_i[r]) c += w[atom_i[p]];
+    if (atom_i[p] == atom_j[r]) c -= w[atom_i[p]];
+    if (atom_j[p] == atom_i[r]) c -= w[atom_j[p]];
+    if (atom_j[p] == atom_j[r]) c += w[atom_j[p]];
+    return c;
+  }
+  const double* weights(const Eigen::VectorXd& w) const {
+    if (w.size() == 0) return ones.data();
+    if (w.size() != n_atoms)
+      throw std::invalid_argument("constraint weights: " + std::to_string(w.size()) + " values for " +
+                                  std::to_string(n_atoms) + " atoms");
+    return w.data();
+  }
+  void check_coords(const Coords& x, const char* what) const {
+    if (x.cols() != n_atoms)
+      throw std::invalid_argument(std::string("constraints: ") + what + " has " + std::to_string(x.cols()) +
+                                  " atoms, the system " + std::to_string(n_atoms));
+  }
+  // Newton for a cluster of at most three constraints (rigid water), entirely on the stack:
+  // J = G(q) W G(q_ref)ᵀ is rebuilt every iteration (quadratic convergence) and inverted in
+  // closed form; unused rows of the padded 3×3 system are the identity.
+  ClusterOutcome solve_small_positions(const Cluster& cl, const Coords& q_ref, Coords& q, const double* w,
+                                       double tolerance, int max_iterations, double* lambda) const {
+    const int b = cl.begin, m = cl.size();
+    Vec3 r_ref[kSmallMax], r[kSmallMax], image[kSmallMax];
+    Eigen::Matrix3d coef;
+    for (int a = 0; a < m; ++a) {
+      r_ref[a] = bond(q_ref, b + a);
+      // The periodic image of each bond is fixed for the whole solve (corrections are far below
+      // half a box), so the minimum image is taken once: r = q_i − q_j + image.
+      const Vec3 raw = q.col(atom_i[b + a]) - q.col(atom_j[b + a]);
+      image[a] = box.minimum_image(raw) - raw;
+      lambda[a] = 0;
+      for (int c = 0; c < m; ++c) coef(a, c) = coefficient(b + a, b + c, w);
+    }
+    ClusterOutcome out;
+    for (;;) {
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      out.deviation = 0;
+      out.worst = b;
+      bool finite = true;
+      for (int a = 0; a < m; ++a) {
+        r[a] = q.col(atom_i[b + a]) - q.col(atom_j[b + a]) + image[a];
+        const double r2 = r[a].squaredNorm(), d = length[b + a];
+        g[a] = 0.5 * (r2 - d * d);
+        const double dev = relative_deviation(r2, d);
+        finite = finite && std::isfinite(dev);
+        if (dev > out.deviation) out.deviation = dev, out.worst = b + a;
+      }
+      if (!finite) out.deviation = std::numeric_limits<double>::quiet_NaN();
+      if (out.deviation <= tolerance) return out;
+      if (!finite || out.iterations >= max_iterations) {
+        out.failed = true;
+        return out;
+      }
+      Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
+      for (int a = 0; a < m; ++a)
+        for (int c = 0; c < m; ++c) J(a, c) = coef(a, c) * r[a].dot(r_ref[c]);
+      const Eigen::Vector3d delta = -(J.inverse() * g);
+      for (int a = 0; a < m; ++a) {
+        q.col(atom_i[b + a]) += (w[atom_i[b + a]] * delta[a]) * r_ref[a];
+        q.col(atom_j[b + a]) -= (w[atom_j[b + a]] * delta[a]) * r_ref[a];
+        lambda[a] += delta[a];
+      }
+      ++out.iterations;
+    }
+  }
+
+  // v ← v − W Gᵀ S⁻¹ G v for a cluster of at most three constraints, on the stack.
+  void project_small_velocities(const Cluster& cl, const Coords& q, Coords& v, const double* w, double* mu) const {
+    const int b = cl.begin, m = cl.size();
+    Vec3 r[kSmallMax];
+    Eigen::Vector3d rate = Eigen::Vector3d::Zero();
+    for (int a = 0; a < m; ++a) {
+      r[a] = bond(q, b + a);
+      rate[a] = r[a].dot(v.col(atom_i[b + a]) - v.col(atom_j[b + a]));
+    }
+    Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < m; ++a)
+      for (int c = 0; c < m; ++c) S(a, c) = coefficient(b + a, b + c, w) * r[a].dot(r[c]);
+    const Eigen::Vector3d x = S.inverse() * rate;
+    for (int a = 0; a < m; ++a) {
+      v.col(atom_i[b + a]) -= (w[atom_i[b + a]] * x[a]) * r[a];
+      v.col(atom_j[b + a]) += (w[atom_j[b + a]] * x[a]) * r[a];
+      mu[a] = x[a];
+    }
+  }
+
+  std::string describe(int p) const {
+    return "constraint " + std::to_string(original[p] + 1) + " (atoms " + std::to_string(atom_i[p] + 1) + "-" +
+           std::to_string(atom_j[p] + 1) + ", 1-based)";
+  }
+};
+
+struct Constraints::Factorization::Impl {
+  struct Dynamic {
+    Eigen::MatrixXd dense_matrix;
+    Eigen::PartialPivLU<Eigen::MatrixXd> dense;
+    Eigen::SparseMatrix<double> matrix;
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+    bool ldlt_analysed = false, lu_analysed = false;
+    bool symmetric = true;  // which of ldlt / lu holds the current factorisation
+    Eigen::VectorXd rhs, x;
+  };
+
+  std::shared_ptr<const Layout> layout;
+  std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> small;
+  std::unique_ptr<Dynamic[]> dynamic;  // SparseLU is not movable, so no std::vector
+  Coords r_left, r_right;
+  bool factorized = false;
+
+  // Sizes the storage for a layout once; later calls with the same layout are free.
+  void bind(const std::shared_ptr<const Layout>& l) {
+    if (layout == l) return;
+    layout = l;
+    factorized = false;
+    small.assign(l->n_small, Eigen::PartialPivLU<Eigen::Matrix3d>());
+    dynamic = std::make_unique<Dynamic[]>(l->dynamic.size());
+    for (const auto& cl : l->clusters) {
+      if (cl.kind == Kind::Small) continue;
+      Dynamic& d = dynamic[cl.slot];
+      const int m = cl.size();
+      if (cl.kind == Kind::Dense) {
+        d.dense_matrix.resize(m, m);
+        d.dense = Eigen::PartialPivLU<Eigen::MatrixXd>(m);
+      } else {
+        d.matrix = l->dynamic[cl.slot].pattern;
+      }
+      d.rhs.resize(m);
+      d.x.resize(m);
+    }
+    r_left.resize(3, l->atom_i.size());
+    r_right.resize(3, l->atom_i.size());
+  }
+
+  // Factorises S = G_left W G_rightᵀ of one cluster from its bond vectors (columns of the
+  // cluster-ordered arrays). False if a sparse factorisation finds S singular.
+  bool factor(const Layout::Cluster& cl, const Coords& rl, const Coords& rr, const double* w, bool symmetric) {
+    const Layout& L = *layout;
+    const int b = cl.begin, m = cl.size();
+    if (cl.kind == Kind::Small) {
+      Eigen::Matrix3d s = Eigen::Matrix3d::Identity();  // unused rows stay identity
+      for (int a = 0; a < m; ++a)
+        for (int c = 0; c < m; ++c) s(a, c) = L.coefficient(b + a, b + c, w) * rl.col(b + a).dot(rr.col(b + c));
+      small[cl.slot].compute(s);
+      return true;
+    }
+    Dynamic& d = dynamic[cl.slot];
+    const Layout::Dynamic& ld = L.dynamic[cl.slot];
+    if (cl.kind == Kind::Dense) {
+      d.dense_matrix.setZero();
+      for (int a = 0; a < m; ++a) d.dense_matrix(a, a) = L.coefficient(b + a, b + a, w) * rl.col(b + a).dot(rr.col(b + a));
+      for (const auto& e : ld.couplings)
+        d.dense_matrix(e.a, e.b) = e.sign * w[e.atom] * rl.col(b + e.a).dot(rr.col(b + e.b));
+      d.dense.compute(d.dense_matrix);
+      d.symmetric = symmetric;
+      return true;
+    }
+    double* values = d.matrix.valuePtr();
+    for (int a = 0; a < m; ++a)
+      values[ld.diagonal_position[a]] = L.coefficient(b + a, b + a, w) * rl.col(b + a).dot(rr.col(b + a));
+    for (std::size_t k = 0; k < ld.couplings.size(); ++k) {
+      const auto& e = ld.couplings[k];
+      values[ld.coupling_position[k]] = e.sign * w[e.atom] * rl.col(b + e.a).dot(rr.col(b + e.b));
+    }
+    d.symmetric = symmetric;
+    if (symmetric) {
+      if (!d.ldlt_analysed) d.ldlt.analyzePattern(d.matrix), d.ldlt_analysed = true;
+      d.ldlt.factorize(d.matrix);
+      return d.ldlt.info() == Eigen::Success;
+    }
+    if (!d.lu_analysed) d.lu.analyzePattern(d.matrix), d.lu_analysed = true;
+    d.lu.factorize(d.matrix);
+    return d.lu.info() == Eigen::Success;
+  }
+
+  // x ← S⁻¹ x for one cluster; x points at the cluster's m values.
+  void solve(const Layout::Cluster& cl, double* x) {
+    const int m = cl.size();
+    if (cl.kind == Kind::Small) {
+      Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+      for (int a = 0; a < m; ++a) rhs[a] = x[a];
+      const Eigen::Vector3d sol = small[cl.slot].solve(rhs);
+      for (int a = 0; a < m; ++a) x[a] = sol[a];
+      return;
+    }
+    Dynamic& d = dynamic[cl.slot];
+    d.rhs = Eigen::Map<const Eigen::VectorXd>(x, m);
+    if (cl.kind == Kind::Dense)
+      d.x = d.dense.solve(d.rhs);
+    else if (d.symmetric)
+      d.x = d.ldlt.solve(d.rhs);
+    else
+      d.x = d.lu.solve(d.rhs);
+    Eigen::Map<Eigen::VectorXd>(x, m) = d.x;
+  }
+};
+
+struct Constraints::Workspace {
+  Factorization factorization;  // solvers of the dense and sparse clusters
+  Coords r_ref, r_cur;          // bond vectors, cluster order
+  Coords image;                 // per bond: minimum_image(q_i − q_j) − (q_i − q_j)
+  Eigen::VectorXd g, delta, lambda;
+  // Per cluster: outcome of the last solve.
+  std::vector<int> iterations, worst;
+  std::vector<double> deviation;
+  std::vector<char> failed, singular;
+};
+
+Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
+    : list_(std::move(list)), n_atoms_(n_atoms), box_(box) {
+  const int n = size();
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(n);
+  for (int a = 0; a < n; ++a) {
+    const Constraint& c = list_[a];
+    const std::string name = "constraint " + std::to_string(a + 1) + " (atoms " + std::to_string(c.i + 1) + "-" +
+                             std::to_string(c.j + 1) + ")";
+    if (c.i < 0 || c.j < 0 || c.i >= n_atoms || c.j >= n_atoms)
+      throw InputError("topology", 0, name + ": atom index outside 1.." + std::to_string(n_atoms));
+    if (c.i == c.j) throw InputError("topology", 0, name + " joins an atom to itself");
+    if (!(c.length > 0) || !std::isfinite(c.length))
+      throw InputError("topology", 0, name + ": length must be positive, got " + std::to_string(c.length));
+    pairs.emplace_back(std::min(c.i, c.j), std::max(c.i, c.j));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  if (auto dup = std::adjacent_find(pairs.begin(), pairs.end()); dup != pairs.end())
+    throw InputError("topology", 0,
+                     "atoms " + std::to_string(dup->first + 1) + " and " + std::to_string(dup->second + 1) +
+                         " are constrained twice (the constraint matrix would be singular)");
+
+  // Connected components over shared atoms (union–find).
+  std::vector<int> parent(n_atoms);
+  for (int k = 0; k < n_atoms; ++k) parent[k] = k;
+  auto root = [&](int k) {
+    while (parent[k] != k) k = parent[k] = parent[parent[k]];
+    return k;
+  };
+  for (const Constraint& c : list_) parent[root(c.i)] = root(c.j);
+  std::vector<int> cluster_of_root(n_atoms, -1);
+  for (int a = 0; a < n; ++a) {
+    int& id = cluster_of_root[root(list_[a].i)];
+    if (id < 0) id = static_cast<int>(clusters_.size()), clusters_.emplace_back();
+    clusters_[id].push_back(a);
+  }
+
+  auto layout = std::make_shared<Layout>();
+  Layout& L = *layout;
+  L.box = box_;
+  L.n_atoms = n_atoms;
+  L.ones = Eigen::VectorXd::Ones(n_atoms);
+  std::vector<std::vector<int>> at_atom(n_atoms);  // local constraint indices per atom, per cluster
+  for (const auto& members : clusters_) {
+    Layout::Cluster cl;
+    cl.begin = static_cast<int>(L.atom_i.size());
+    cl.end = cl.begin + static_cast<int>(members.size());
+    for (int a : members) {
+      L.atom_i.push_back(list_[a].i);
+      L.atom_j.push_back(list_[a].j);
+      L.original.push_back(a);
+      L.length.push_back(list_[a].length);
+    }
+    const int m = cl.size();
+    cl.kind = m <= kSmallMax ? Kind::Small : m <= kDenseMax ? Kind::Dense : Kind::Sparse;
+    if (cl.kind == Kind::Small) {
+      cl.slot = L.n_small++;
+    } else {
+      cl.slot = static_cast<int>(L.dynamic.size());
+      Layout::Dynamic d;
+      for (int a = 0; a < m; ++a) {
+        at_atom[L.atom_i[cl.begin + a]].push_back(a);
+        at_atom[L.atom_j[cl.begin + a]].push_back(a);
+      }
+      for (int a = 0; a < m; ++a)
+        for (int atom : {L.atom_i[cl.begin + a], L.atom_j[cl.begin + a]}) {
+          for (int b : at_atom[atom]) {
+            if (b == a) continue;
+            const double sa = L.atom_i[cl.begin + a] == atom ? 1.0 : -1.0;
+            const double sb = L.atom_i[cl.begin + b] == atom ? 1.0 : -1.0;
+            d.couplings.push_back({a, b, atom, sa * sb});
+          }
+        }
+      for (int a = 0; a < m; ++a) at_atom[L.atom_i[cl.begin + a]].clear(), at_atom[L.atom_j[cl.begin + a]].clear();
+      if (cl.kind == Kind::Sparse) {
+        std::vector<Eigen::Triplet<double>> entries;
+        for (int a = 0; a < m; ++a) entries.emplace_back(a, a, 1.0);
+        for (const auto& e : d.couplings) entries.emplace_back(e.a, e.b, 1.0);
+        d.pattern.resize(m, m);
+        d.pattern.setFromTriplets(entries.begin(), entries.end());
+        d.pattern.makeCompressed();
+        auto position = [&](int row, int col) {
+          const int* inner = d.pattern.innerIndexPtr();
+          const int* begin = inner + d.pattern.outerIndexPtr()[col];
+          const int* end = inner + d.pattern.outerIndexPtr()[col + 1];
+          return static_cast<int>(std::lower_bound(begin, end, row) - inner);
+        };
+        for (int a = 0; a < m; ++a) d.diagonal_position.push_back(position(a, a));
+        for (const auto& e : d.couplings) d.coupling_position.push_back(position(e.a, e.b));
+      }
+      L.dynamic.push_back(std::move(d));
+    }
+    L.clusters.push_back(cl);
+  }
+  layout_ = std::move(layout);
+
+  work_ = std::make_unique<Workspace>();
+  Workspace& ws = *work_;
+  ws.factorization.impl_->bind(layout_);
+  ws.r_ref.resize(3, n);
+  ws.r_cur.resize(3, n);
+  ws.image.resize(3, n);
+  ws.g.resize(n);
+  ws.delta.resize(n);
+  ws.lambda.resize(n);
+  const std::size_t nc = clusters_.size();
+  ws.iterations.assign(nc, 0);
+  ws.worst.assign(nc, 0);
+  ws.deviation.assign(nc, 0.0);
+  ws.failed.assign(nc, 0);
+  ws.singular.assign(nc, 0);
+}
+
+Constraints::Constraints() = default;
+Constraints::~Constraints() = default;
+Constraints::Constraints(Constraints&&) noexcept = default;
+Constraints& Constraints::operator=(Constraints&&) noexcept = default;
+
+Constraints::Factorization::Factorization() : impl_(std::make_unique<Impl>()) {}
+Constraints::Factorization::~Factorization() = default;
+Constraints::Factorization::Factorization(Factorization&&) noexcept = default;
+Constraints::Factorization& Constraints::Factorization::operator=(Factorization&&) noexcept = default;
+
+void Constraints::vectors(const Coords& q, Coords& r) const {
+  r.resize(3, size());
+  const int n = size();
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int a = 0; a < n; ++a) r.col(a) = box_.minimum_image(q.col(list_[a].i) - q.col(list_[a].j));
+}
+
+void Constraints::residuals(const Coords& q, Eigen::VectorXd& g) const {
+  g.resize(size());
+  const int n = size();
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int a = 0; a < n; ++a) {
+    const Constraint& c = list_[a];
+    g[a] = 0.5 * (box_.minimum_image(q.col(c.i) - q.col(c.j)).squaredNorm() - c.length * c.length);
+  }
+}
+
+double Constraints::max_relative_deviation(const Coords& q) const {
+  return parallel_max(size(), [&](int a) {
+    const Constraint& c = list_[a];
+    return relative_deviation(box_.minimum_image(q.col(c.i) - q.col(c.j)).squaredNorm(), c.length);
+  });
+}
+
+double Constraints::max_velocity_residual(const Coords& q, const Coords& v) const {
+  return parallel_max(size(), [&](int a) {
+    const Constraint& c = list_[a];
+    const Vec3 dv = v.col(c.i) - v.col(c.j);
+    const double rate = box_.minimum_image(q.col(c.i) - q.col(c.j)).dot(dv);
+    return std::abs(rate) / (c.length * std::max(1.0, dv.norm()));
+  });
+}
+
+void Constraints::apply_G(const Coords& q, const Coords& u, Eigen::VectorXd& out) const {
+  out.resize(size());
+  const int n = size();
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int a = 0; a < n; ++a) {
+    const Constraint& c = list_[a];
+    out[a] = box_.minimum_image(q.col(c.i) - q.col(c.j)).dot(u.col(c.i) - u.col(c.j));
+  }
+}
+
+// Atoms belong to one cluster only, so scattering per cluster is race-free.
+void Constraints::add_GT(const Coords& q, const Eigen::VectorXd& lambda, Coords& out, const Eigen::VectorXd& w) const {
+  if (empty()) return;
+  const Layout& L = *layout_;
+  const double* wp = L.weights(w);
+  const int nc = static_cast<int>(L.clusters.size());
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int c = 0; c < nc; ++c)
+    for (int p = L.clusters[c].begin; p < L.clusters[c].end; ++p) {
+      const Vec3 r = L.bond(q, p) * lambda[L.original[p]];
+      out.col(L.atom_i[p]) += wp[L.atom_i[p]] * r;
+      out.col(L.atom_j[p]) -= wp[L.atom_j[p]] * r;
+    }
+}
+
+void Constraints::add_H(const Eigen::VectorXd& c, const Coords& y, Coords& out, const Eigen::VectorXd& w) const {
+  if (empty()) return;
+  const Layout& L = *layout_;
+  const double* wp = L.weights(w);
+  const int nc = static_cast<int>(L.clusters.size());
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int k = 0; k < nc; ++k)
+    for (int p = L.clusters[k].begin; p < L.clusters[k].end; ++p) {
+      const Vec3 dy = c[L.original[p]] * (y.col(L.atom_i[p]) - y.col(L.atom_j[p]));
+      out.col(L.atom_i[p]) += wp[L.atom_i[p]] * dy;
+      out.col(L.atom_j[p]) -= wp[L.atom_j[p]] * dy;
+    }
+}
+
+void Constraints::factorize(const Coords& q_left, const Coords& q_right, const Eigen::VectorXd& w,
+                            Factorization& out) const {
+  Factorization::Impl& f = *out.impl_;
+  f.factorized = false;
+  if (empty()) return;
+  const Layout& L = *layout_;
+  L.check_coords(q_left, "q_left");
+  L.check_coords(q_right, "q_right");
+  const double* wp = L.weights(w);
+  f.bind(layout_);
+  const int n = size();
+  const bool symmetric = &q_left == &q_right;
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int p = 0; p < n; ++p) {
+    f.r_left.col(p) = L.bond(q_left, p);
+    if (!symmetric) f.r_right.col(p) = L.bond(q_right, p);
+  }
+  const Coords& rr = symmetric ? f.r_left : f.r_right;
+  const int nc = static_cast<int>(L.clusters.size());
+  int singular = -1;
+#pragma omp parallel for schedule(guided) if (n > kParallelMin)
+  for (int c = 0; c < nc; ++c)
+    if (!f.factor(L.clusters[c], f.r_left, rr, wp, symmetric)) {
+#pragma omp critical(vimd_constraints_singular)
+      singular = std::max(singular, c);
+    }
+  if (singular >= 0)
+    throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " +
+                             L.describe(L.clusters[singular].begin) +
+                             " is singular (the constraints are linearly dependent at these positions)");
+  f.factorized = true;
+}
+
+void Constraints::Factorization::solve(Eigen::VectorXd& rhs) const {
+  if (!impl_->layout) {
+    if (rhs.size() == 0) return;
+    throw std::logic_error("Constraints::Factorization::solve called before factorize");
+  }
+  Impl& f = *impl_;
+  const Layout& L = *f.layout;
+  if (!f.factorized) throw std::logic_error("Constraints::Factorization::solve called before factorize");
+  if (rhs.size() != static_cast<Eigen::Index>(L.original.size()))
+    throw std::invalid_argument("Constraints::Factorization::solve: right-hand side has wrong size");
+  const int nc = static_cast<int>(L.clusters.size());
+#pragma omp parallel for schedule(guided) if (rhs.size() > kParallelMin)
+  for (int c = 0; c < nc; ++c) {
+    const auto& cl = L.clusters[c];
+    double local[kSmallMax];
+    double* x = cl.kind == Kind::Small ? local : f.dynamic[cl.slot].x.data();
+    // Gather into cluster order; solve() copies dynamic clusters into their rhs buffer first,
+    // so using x as the carrier does not alias.
+    for (int a = 0; a < cl.size(); ++a) x[a] = rhs[L.original[cl.begin + a]];
+    f.solve(cl, x);
+    for (int a = 0; a < cl.size(); ++a) rhs[L.original[cl.begin + a]] = x[a];
+  }
+}
+
+namespace {
+
+// Bond deviations of one cluster at q: stores the current bond vectors r = q_i − q_j + image
+// and g_a (cluster order) and records the worst relative deviation.
+template <class Layout>
+void measure(const Layout& L, const typename Layout::Cluster& cl, const Coords& q, const Coords& image, Coords& r,
+             Eigen::VectorXd& g, ClusterOutcome& out) {
+  out.deviation = 0;
+  out.worst = cl.begin;
+  bool finite = true;
+  for (int p = cl.begin; p < cl.end; ++p) {
+    r.col(p) = q.col(L.atom_i[p]) - q.col(L.atom_j[p]) + image.col(p);
+    const double r2 = r.col(p).squaredNorm(), d = L.length[p];
+    g[p] = 0.5 * (r2 - d * d);
+    const double dev = relative_deviation(r2, d);
+    finite = finite && std::isfinite(dev);
+    if (dev > out.deviation) out.deviation = dev, out.worst = p;
+  }
+  if (!finite) out.deviation = std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance,
+                                 long step, int max_iterations, Eigen::VectorXd* lambda_out) const {
+  if (lambda_out) lambda_out->setZero(size());
+  if (empty()) return 0;
+  if (!(tolerance > 0)) throw std::invalid_argument("constraint tolerance must be positive");
+  const Layout& L = *layout_;
+  L.check_coords(q_ref, "q_ref");
+  L.check_coords(q, "q");
+  const double* wp = L.weights(w);
+  Workspace& ws = *work_;
+  Factorization::Impl& f = *ws.factorization.impl_;
+  const int nc = static_cast<int>(L.clusters.size());
+
+  // Dense and sparse clusters: Newton on λ with the cluster's factorisation in the workspace.
+  auto solve_dynamic = [&](const Layout::Cluster& cl) {
+    const int b = cl.begin, m = cl.size();
+    ClusterOutcome out;
+    double* delta = ws.delta.data() + b;
+    for (int p = b; p < b + m; ++p) {
+      ws.r_ref.col(p) = L.bond(q_ref, p);
+      // As in the small kernel: the periodic image of a bond is fixed during the solve.
+      const Vec3 raw = q.col(L.atom_i[p]) - q.col(L.atom_j[p]);
+      ws.image.col(p) = L.box.minimum_image(raw) - raw;
+      ws.lambda[p] = 0;
+    }
+    double previous = std::numeric_limits<double>::infinity();
+    for (;;) {
+      measure(L, cl, q, ws.image, ws.r_cur, ws.g, out);
+      if (out.deviation <= tolerance) return out;
+      if (!(out.deviation < std::numeric_limits<double>::infinity()) || out.iterations >= max_iterations) {
+        out.failed = true;
+        return out;
+      }
+      // The Jacobian of g(q + W G(q_ref)ᵀ λ) is G(q) W G(q_ref)ᵀ. Dense clusters use it every
+      // iteration; sparse ones start from the symmetric S(q_ref) (one cheap LDLᵀ) and switch to
+      // the exact matrix only when that converges slowly.
+      const bool chord_start = cl.kind == Kind::Sparse && out.iterations == 0;
+      const bool refresh = cl.kind == Kind::Dense || chord_start || out.deviation > kChordRate * previous;
+      if (refresh && !f.factor(cl, chord_start ? ws.r_ref : ws.r_cur, ws.r_ref, wp, chord_start)) {
+        out.failed = out.singular = true;
+        return out;
+      }
+      for (int a = 0; a < m; ++a) delta[a] = -ws.g[b + a];
+      f.solve(cl, delta);
+      for (int a = 0; a < m; ++a) {
+        const int i = L.atom_i[b + a], j = L.atom_j[b + a];
+        q.col(i) += (wp[i] * delta[a]) * ws.r_ref.col(b + a);
+        q.col(j) -= (wp[j] * delta[a]) * ws.r_ref.col(b + a);
+        ws.lambda[b + a] += delta[a];
+      }
+      previous = out.deviation;
+      ++out.iterations;
+    }
+  };
+
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int c = 0; c < nc; ++c) {
+    const auto& cl = L.clusters[c];
+    const ClusterOutcome out =
+        cl.kind == Kind::Small
+            ? L.solve_small_positions(cl, q_ref, q, wp, tolerance, max_iterations, ws.lambda.data() + cl.begin)
+            : solve_dynamic(cl);
+    ws.iterations[c] = out.iterations;
+    ws.worst[c] = out.worst;
+    ws.deviation[c] = out.deviation;
+    ws.failed[c] = out.failed;
+    ws.singular[c] = out.singular;
+  }
+
+  // Report the failed cluster that is furthest off; a diverged (NaN) one first.
+  auto worse = [&](int c, int than) {
+    if (than < 0) return true;
+    if (std::isnan(ws.deviation[than])) return false;
+    return std::isnan(ws.deviation[c]) || ws.deviation[c] > ws.deviation[than];
+  };
+  int iterations = 0, failed = -1;
+  for (int c = 0; c < nc; ++c) {
+    iterations = std::max(iterations, ws.iterations[c]);
+    if (ws.failed[c] && worse(c, failed)) failed = c;
+  }
+  if (failed >= 0) {
+    const double dev = ws.deviation[failed];
+    std::string detail = "worst " + L.describe(ws.worst[failed]);
+    if (ws.singular[failed])
+      detail += ": the constraint matrix is singular (linearly dependent constraints)";
+    else if (std::isnan(dev))
+      detail += ": the iteration diverged (non-finite deviation)";
+    else
+      detail += " deviates from its length by " + format_number(dev) + " relative (tolerance " +
+                format_number(tolerance) + ")";
+    detail += "; a smaller time step usually helps";
+    throw ConvergenceError("constraint solver", step, ws.iterations[failed], dev, detail);
+  }
+  if (lambda_out)
+    for (int p = 0; p < size(); ++p) (*lambda_out)[L.original[p]] = ws.lambda[p];
+  return iterations;
+}
+
+void Constraints::project_velocities(const Coords& q, Coords& v, const Eigen::VectorXd& w,
+                                     Eigen::VectorXd* mu_out) const {
+  if (mu_out) mu_out->setZero(size());
+  if (empty()) return;
+  const Layout& L = *layout_;
+  L.check_coords(q, "q");
+  L.check_coords(v, "v");
+  const double* wp = L.weights(w);
+  Workspace& ws = *work_;
+  Factorization::Impl& f = *ws.factorization.impl_;
+  const int nc = static_cast<int>(L.clusters.size());
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int c = 0; c < nc; ++c) {
+    const auto& cl = L.clusters[c];
+    const int b = cl.begin, m = cl.size();
+    double* mu = ws.delta.data() + b;
+    if (cl.kind == Kind::Small) {
+      L.project_small_velocities(cl, q, v, wp, mu);
+      ws.singular[c] = false;
+      continue;
+    }
+    for (int a = 0; a < m; ++a) {
+      const int i = L.atom_i[b + a], j = L.atom_j[b + a];
+      ws.r_cur.col(b + a) = L.bond(q, b + a);
+      mu[a] = ws.r_cur.col(b + a).dot(v.col(i) - v.col(j));
+    }
+    ws.singular[c] = !f.factor(cl, ws.r_cur, ws.r_cur, wp, true);
+    if (ws.singular[c]) continue;
+    f.solve(cl, mu);
+    for (int a = 0; a < m; ++a) {
+      const int i = L.atom_i[b + a], j = L.atom_j[b + a];
+      v.col(i) -= (wp[i] * mu[a]) * ws.r_cur.col(b + a);
+      v.col(j) += (wp[j] * mu[a]) * ws.r_cur.col(b + a);
+    }
+  }
+  for (int c = 0; c < nc; ++c)
+    if (ws.singular[c])
+      throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " +
+                               L.describe(L.clusters[c].begin) +
+                               " is singular (the constraints are linearly dependent at these positions)");
+  if (mu_out)
+    for (int p = 0; p < size(); ++p) (*mu_out)[L.original[p]] = ws.delta[p];
+}
+
+}  // namespace vimd

@@ -1,0 +1,49 @@
+#include "integrators/rattle.hpp"
+
+#include "integrators/verlet.hpp"
+
+namespace vimd {
+
+int constrain_start(const Problem& problem, State& state, double tolerance, int max_iterations) {
+  if (problem.constraints.empty()) return 0;
+  const Coords q_ref = state.q;
+  const int iterations = problem.constraints.solve_positions(q_ref, state.q, problem.inverse_mass, tolerance,
+                                                             state.step, max_iterations);
+  problem.constraints.project_velocities(state.q, state.v, problem.inverse_mass);
+  return iterations;
+}
+
+Rattle::Rattle(const IntegratorConfig& config)
+    : dt_(config.dt), tolerance_(config.constraint_tolerance), max_iterations_(config.max_iterations) {
+  check_step_config(config);
+}
+
+void Rattle::init(Problem& problem, State& state) {
+  check_start(problem, state);
+  constrain_start(problem, state, tolerance_, max_iterations_);
+  evaluate_forces(problem, state, forces_);
+}
+
+StepReport Rattle::step(Problem& problem, State& state) {
+  const Constraints& constraints = problem.constraints;
+  const Eigen::VectorXd& w = problem.inverse_mass;
+  StepReport report;
+
+  kick(w, state.f, 0.5 * dt_, state.v);
+  q_start_ = state.q;
+  state.q += dt_ * state.v;
+  if (!constraints.empty()) {
+    report.iterations =
+        constraints.solve_positions(q_start_, state.q, w, tolerance_, state.step + 1, max_iterations_, &lambda_);
+    // The position correction M⁻¹G(q_n)ᵀλ came from a velocity change of M⁻¹G(q_n)ᵀλ/dt.
+    lambda_ /= dt_;
+    constraints.add_GT(q_start_, lambda_, state.v, w);
+    report.residual = constraints.max_relative_deviation(state.q);
+  }
+  evaluate_forces(problem, state, forces_);
+  kick(w, state.f, 0.5 * dt_, state.v);
+  constraints.project_velocities(state.q, state.v, w);
+  return report;
+}
+
+}  // namespace vimd

@@ -1,0 +1,32 @@
+#pragma once
+// RATTLE (Andersen 1983): velocity Verlet with a position constraint stage (Newton on the
+// multipliers along G(q_n)ᵀ) and a velocity projection onto the tangent space at q_{n+1}.
+// State::v holds the on-step velocity v_n.
+#include "engine/config.hpp"
+#include "engine/integrator.hpp"
+
+namespace vimd {
+
+// Puts the starting state on the constraint manifold (a .gro carries only 3 decimals):
+// positions by a mass-weighted projection (solve_positions with q_ref = q), velocities by the
+// M⁻¹-orthogonal projection onto the tangent space. Returns the position iterations.
+int constrain_start(const Problem& problem, State& state, double tolerance, int max_iterations);
+
+class Rattle : public Integrator {
+ public:
+  explicit Rattle(const IntegratorConfig& config);
+  std::string name() const override { return "rattle"; }
+  void init(Problem& problem, State& state) override;
+  // iterations: constraint (Newton) iterations of the position stage; residual: the final
+  // maximum relative bond-length deviation.
+  StepReport step(Problem& problem, State& state) override;
+
+ private:
+  double dt_, tolerance_;
+  int max_iterations_;
+  Forces forces_;
+  Coords q_start_;
+  Eigen::VectorXd lambda_;
+};
+
+}  // namespace vimd

@@ -1,0 +1,66 @@
+#include "integrators/verlet.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+
+void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v) {
+  for (Eigen::Index i = 0; i < v.cols(); ++i) v.col(i) += (h * inverse_mass[i]) * f.col(i);
+}
+
+void evaluate_forces(Problem& problem, State& state, Forces& scratch) {
+  problem.force_field.compute(state.q, scratch);
+  std::swap(state.f, scratch.f);  // the old force array becomes next call's scratch
+  state.potential = scratch.potential;
+  state.energy_terms = scratch.terms;
+}
+
+void check_start(const Problem& problem, State& state) {
+  const int n = problem.system.n_atoms();
+  if (state.q.cols() != n || problem.inverse_mass.size() != n)
+    throw std::invalid_argument("integrator: the state has " + std::to_string(state.q.cols()) + " atoms and " +
+                                std::to_string(problem.inverse_mass.size()) + " inverse masses, the system " +
+                                std::to_string(n) + " atoms");
+  if (state.v.cols() == 0) state.v = Coords::Zero(3, n);
+  if (state.v.cols() != n)
+    throw std::invalid_argument("integrator: the state has " + std::to_string(state.v.cols()) +
+                                " velocities for " + std::to_string(n) + " atoms");
+}
+
+void check_step_config(const IntegratorConfig& config) {
+  if (!(config.dt > 0) || !std::isfinite(config.dt))
+    throw InputError("[integrator]", 0, "dt must be a positive time step in ps, got " + std::to_string(config.dt));
+  if (!(config.constraint_tolerance > 0 && config.constraint_tolerance < 1))
+    throw InputError("[integrator]", 0,
+                     "constraint_tolerance is relative and must lie in (0, 1), got " +
+                         std::to_string(config.constraint_tolerance));
+  if (config.max_iterations < 1)
+    throw InputError("[integrator]", 0, "max_iterations must be at least 1, got " +
+                                            std::to_string(config.max_iterations));
+}
+
+VelocityVerlet::VelocityVerlet(const IntegratorConfig& config) : dt_(config.dt) { check_step_config(config); }
+
+void VelocityVerlet::init(Problem& problem, State& state) {
+  if (!problem.constraints.empty())
+    throw InputError("[integrator]", 0,
+                     "type = \"verlet\" cannot keep the " + std::to_string(problem.constraints.size()) +
+                         " constraints of this system; use type = \"rattle\" (velocity Verlet with constraints)");
+  check_start(problem, state);
+  evaluate_forces(problem, state, forces_);
+}
+
+StepReport VelocityVerlet::step(Problem& problem, State& state) {
+  kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
+  state.q += dt_ * state.v;
+  evaluate_forces(problem, state, forces_);
+  kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
+  return {};
+}
+
+}  // namespace vimd

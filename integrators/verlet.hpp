@@ -1,0 +1,32 @@
+#pragma once
+// Velocity Verlet for unconstrained systems, plus the pieces the constrained integrators
+// (SHAKE, RATTLE) share with it: the half kick, the force update and the config checks.
+#include "engine/config.hpp"
+#include "engine/integrator.hpp"
+
+namespace vimd {
+
+// v += h M⁻¹ f
+void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v);
+// state.f, state.potential, state.energy_terms ← the force field at state.q. `scratch` is the
+// caller's reusable buffer, so steady-state steps do not allocate.
+void evaluate_forces(Problem& problem, State& state, Forces& scratch);
+// Checks that state and problem sizes agree; a state without velocities starts at rest.
+void check_start(const Problem& problem, State& state);
+// InputError for a time step, tolerance or iteration limit no integrator can use.
+void check_step_config(const IntegratorConfig& config);
+
+class VelocityVerlet : public Integrator {
+ public:
+  explicit VelocityVerlet(const IntegratorConfig& config);
+  std::string name() const override { return "verlet"; }
+  // Refuses constrained systems (use RATTLE); computes the starting forces.
+  void init(Problem& problem, State& state) override;
+  StepReport step(Problem& problem, State& state) override;
+
+ private:
+  double dt_;
+  Forces forces_;
+};
+
+}  // namespace vimd

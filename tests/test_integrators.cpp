@@ -1,0 +1,407 @@
+// The one-step integrators: registry, RATTLE and SHAKE keeping the constraints on a water box and
+// on a branched chain, SHAKE ≡ RATTLE in positions, SHAKE's half-step kinetic energy, RATTLE's
+// measured order, velocity Verlet's energy conservation, and the errors users meet.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "engine/errors.hpp"
+#include "integrators/rattle.hpp"
+#include "integrators/registry.hpp"
+#include "integrators/shake.hpp"
+#include "integrators/verlet.hpp"
+#include "tests/constrained_systems.hpp"
+
+namespace vimd {
+namespace {
+
+using testing::SpringsAndSoftRepulsion;
+
+// A system with its potential and constraints; Problem refers into it, so it stays in place
+// (hence always held by unique_ptr).
+struct TestSystem {
+  System system;
+  State state;
+  std::unique_ptr<ForceField> field;
+  Constraints constraints;
+  std::unique_ptr<Problem> problem;
+
+  void finish(std::vector<Bond> springs, double epsilon, double cutoff, double temperature, std::uint64_t seed) {
+    field = std::make_unique<ForceField>();
+    field->add(std::make_unique<SpringsAndSoftRepulsion>(system, std::move(springs), epsilon, cutoff));
+    constraints = Constraints(system.constraints, system.n_atoms(), system.box);
+    problem = std::make_unique<Problem>(Problem{system, *field, constraints, system.mass.cwiseInverse()});
+    state.v = testing::thermal_velocities(system, temperature, seed);
+  }
+};
+
+// 125 rigid waters in a 1.55 nm periodic box (atoms wrapped), positions rounded to 3 decimals
+// as in a .gro file, so init() has real work to do.
+std::unique_ptr<TestSystem> water_system() {
+  auto s = std::make_unique<TestSystem>();
+  testing::water_box(5, 0.31, 11, s->system, s->state.q);
+  s->state.q = (s->state.q * 1000).array().round() / 1000;
+  s->finish({}, 2.0, 0.3, 300, 12);
+  return s;
+}
+
+// A 150-bead backbone with 4-bead branches every 10 beads (one 199-constraint cluster with
+// branch points), in a 3 nm periodic box it is longer than.
+std::unique_ptr<TestSystem> polymer_system() {
+  auto s = std::make_unique<TestSystem>();
+  std::mt19937_64 rng(21);
+  std::vector<Bond> springs;
+  s->system.box.length = Vec3::Constant(3.0);
+  testing::add_chain(s->system, s->state.q, 150, 10, 4, 0.15, Vec3(1.5, 1.5, 1.5), rng, springs);
+  testing::wrap(s->system.box, s->state.q);
+  s->finish(std::move(springs), 2.0, 0.3, 300, 22);
+  return s;
+}
+
+// Small and smooth, not periodic: one water, a 5-bead chain (a dense 4-constraint cluster) and
+// a diatomic.
+std::unique_ptr<TestSystem> small_system() {
+  auto s = std::make_unique<TestSystem>();
+  std::mt19937_64 rng(31);
+  std::vector<Bond> springs;
+  testing::add_water(s->system, s->state.q, Vec3(0, 0, 0), rng);
+  testing::add_chain(s->system, s->state.q, 5, 0, 0, 0.15, Vec3(0.25, 0, 0), rng, springs);
+  testing::add_chain(s->system, s->state.q, 2, 0, 0, 0.12, Vec3(0, 0.25, 0), rng, springs);
+  s->finish(std::move(springs), 5.0, 0.35, 300, 32);
+  return s;
+}
+
+IntegratorConfig config(const std::string& type, double dt, double tolerance = 1e-10) {
+  IntegratorConfig c;
+  c.type = type;
+  c.dt = dt;
+  c.constraint_tolerance = tolerance;
+  return c;
+}
+
+// Measured numbers go into the test report (--gtest_output=xml) for the record.
+void record(const char* name, double value) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3e", value);
+  ::testing::Test::RecordProperty(name, buf);
+}
+
+Vec3 momentum(const TestSystem& s) { return s.state.v * s.system.mass; }
+
+struct EnergyStats {
+  double mean_kinetic = 0, fluctuation = 0;  // RMS of the total energy about its mean
+};
+
+TEST(IntegratorRegistry, BuildsEveryNamedIntegrator) {
+  const auto names = integrator_names();
+  for (const char* expected : {"verlet", "shake", "rattle"})
+    EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
+  for (const auto& name : names) EXPECT_EQ(make_integrator(config(name, 0.001))->name(), name);
+}
+
+TEST(IntegratorRegistry, UnknownTypeListsTheValidOnes) {
+  try {
+    make_integrator(config("leapfrog", 0.001));
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("leapfrog"), std::string::npos) << what;
+    EXPECT_NE(what.find("rattle"), std::string::npos) << what;
+  }
+}
+
+TEST(IntegratorRegistry, ImpossibleSettingsAreInputErrors) {
+  for (const auto& name : integrator_names()) {
+    EXPECT_THROW(make_integrator(config(name, 0.0)), InputError) << name;
+    EXPECT_THROW(make_integrator(config(name, 0.001, -1e-10)), InputError) << name;
+    auto c = config(name, 0.001);
+    c.max_iterations = 0;
+    EXPECT_THROW(make_integrator(c), InputError) << name;
+  }
+}
+
+TEST(VelocityVerlet, RefusesConstrainedSystemsAndPointsToRattle) {
+  auto s = water_system();
+  VelocityVerlet verlet(config("verlet", 0.001));
+  try {
+    verlet.init(*s->problem, s->state);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("rattle"), std::string::npos) << e.what();
+  }
+}
+
+// An unconstrained bead chain with stiff harmonic bonds (period ≈ 75 fs).
+std::unique_ptr<TestSystem> flexible_chain_system() {
+  auto s = std::make_unique<TestSystem>();
+  std::mt19937_64 rng(41);
+  std::vector<Bond> springs;
+  testing::add_chain(s->system, s->state.q, 40, 0, 0, 0.15, Vec3(0, 0, 0), rng, springs);
+  for (const Constraint& c : s->system.constraints) springs.push_back({c.i, c.j, c.length, 5e4});
+  s->system.constraints.clear();
+  s->finish(std::move(springs), 2.0, 0.3, 300, 42);
+  return s;
+}
+
+EnergyStats run_and_measure(TestSystem& s, Integrator& integrator, int steps, std::vector<double>* totals = nullptr) {
+  integrator.init(*s.problem, s.state);
+  std::vector<double> e;
+  double kinetic = 0;
+  for (int n = 0; n <= steps; ++n) {
+    if (n > 0) integrator.step(*s.problem, s.state);
+    const double k = integrator.kinetic_energy(*s.problem, s.state);
+    kinetic += k;
+    e.push_back(k + s.state.potential);
+  }
+  double mean = 0, var = 0;
+  for (double x : e) mean += x / e.size();
+  for (double x : e) var += (x - mean) * (x - mean) / e.size();
+  if (totals) *totals = e;
+  return {kinetic / e.size(), std::sqrt(var)};
+}
+
+TEST(VelocityVerlet, ConservesEnergyWithSecondOrderFluctuations) {
+  double fluctuation[2];
+  for (int k = 0; k < 2; ++k) {
+    auto s = flexible_chain_system();
+    const double dt = k == 0 ? 0.001 : 0.0005;
+    VelocityVerlet verlet(config("verlet", dt));
+    std::vector<double> e;
+    const EnergyStats stats = run_and_measure(*s, verlet, static_cast<int>(std::lround(1.0 / dt)), &e);
+    fluctuation[k] = stats.fluctuation;
+    EXPECT_LT(stats.fluctuation, 1e-2 * stats.mean_kinetic) << "dt " << dt;
+    EXPECT_LT(std::abs(e.back() - e.front()), 5 * stats.fluctuation + 1e-9) << "dt " << dt;
+  }
+  // Halving dt divides the shadow-energy fluctuation by about four.
+  record("fluctuation_ratio", fluctuation[0] / fluctuation[1]);
+  EXPECT_GT(fluctuation[0] / fluctuation[1], 3.0);
+  EXPECT_LT(fluctuation[0] / fluctuation[1], 5.0);
+}
+
+TEST(Rattle, WithoutConstraintsIsVelocityVerlet) {
+  auto a = flexible_chain_system(), b = flexible_chain_system();
+  VelocityVerlet verlet(config("verlet", 0.001));
+  Rattle rattle(config("rattle", 0.001));
+  verlet.init(*a->problem, a->state);
+  rattle.init(*b->problem, b->state);
+  for (int n = 0; n < 20; ++n) {
+    verlet.step(*a->problem, a->state);
+    rattle.step(*b->problem, b->state);
+  }
+  EXPECT_EQ((a->state.q - b->state.q).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((a->state.v - b->state.v).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// RATTLE keeps |g| and |G v| at the tolerance, step after step, and conserves energy and momentum.
+void check_rattle_keeps_constraints(TestSystem& s, double dt, int steps) {
+  const double tolerance = 1e-10;
+  Rattle rattle(config("rattle", dt, tolerance));
+  ASSERT_GT(s.constraints.max_relative_deviation(s.state.q), 1e-6);  // the start is off the manifold
+  rattle.init(*s.problem, s.state);
+  EXPECT_LE(s.constraints.max_relative_deviation(s.state.q), tolerance);
+  EXPECT_LE(s.constraints.max_velocity_residual(s.state.q, s.state.v), tolerance);
+  const Vec3 p0 = momentum(s);
+  const long step0 = s.state.step;
+  const double time0 = s.state.time;
+  std::vector<double> e;
+  double kinetic = 0, worst_g = 0, worst_gv = 0;
+  int max_iterations = 0;
+  for (int n = 0; n < steps; ++n) {
+    const StepReport report = rattle.step(*s.problem, s.state);
+    worst_g = std::max(worst_g, s.constraints.max_relative_deviation(s.state.q));
+    worst_gv = std::max(worst_gv, s.constraints.max_velocity_residual(s.state.q, s.state.v));
+    EXPECT_LE(report.residual, tolerance);
+    EXPECT_GE(report.iterations, 1);
+    max_iterations = std::max(max_iterations, report.iterations);
+    const double k = rattle.kinetic_energy(*s.problem, s.state);
+    kinetic += k / steps;
+    e.push_back(k + s.state.potential);
+  }
+  record("max_deviation", worst_g);
+  record("max_velocity_residual", worst_gv);
+  record("max_iterations", max_iterations);
+  EXPECT_LE(worst_g, tolerance);
+  EXPECT_LE(worst_gv, tolerance);
+  EXPECT_LE(max_iterations, 10);
+  // The run loop, not the integrator, advances the step counter and the clock.
+  EXPECT_EQ(s.state.step, step0);
+  EXPECT_EQ(s.state.time, time0);
+  // Forces and energies belong to the final positions.
+  Forces fresh;
+  s.field->compute(s.state.q, fresh);
+  EXPECT_LT((fresh.f - s.state.f).cwiseAbs().maxCoeff(), 1e-12 * (1 + fresh.f.cwiseAbs().maxCoeff()));
+  EXPECT_DOUBLE_EQ(fresh.potential, s.state.potential);
+  // Constraint forces are internal: total momentum is conserved to round-off.
+  EXPECT_LT((momentum(s) - p0).norm(), 1e-10 * (1 + s.system.mass.sum()));
+  const auto [lo, hi] = std::minmax_element(e.begin(), e.end());
+  record("energy_range_over_kinetic", (*hi - *lo) / kinetic);
+  EXPECT_LT(*hi - *lo, 1e-3 * kinetic) << "total energy range vs mean kinetic energy";
+}
+
+TEST(Rattle, KeepsConstraintsOnAWaterBox) {
+  auto s = water_system();
+  check_rattle_keeps_constraints(*s, 0.002, 300);
+}
+
+TEST(Rattle, KeepsConstraintsOnABranchedChain) {
+  auto s = polymer_system();
+  // Knock the start off the manifold as a 3-decimal .gro would.
+  s->state.q = (s->state.q * 1000).array().round() / 1000;
+  check_rattle_keeps_constraints(*s, 0.004, 300);
+}
+
+void check_shake_keeps_constraints(TestSystem& s, double dt, int steps) {
+  const double tolerance = 1e-10;
+  Shake shake(config("shake", dt, tolerance));
+  shake.init(*s.problem, s.state);
+  EXPECT_LE(s.constraints.max_relative_deviation(s.state.q), tolerance);
+  std::vector<double> e;
+  double kinetic = 0, worst_g = 0;
+  for (int n = 0; n < steps; ++n) {
+    const StepReport report = shake.step(*s.problem, s.state);
+    worst_g = std::max(worst_g, s.constraints.max_relative_deviation(s.state.q));
+    EXPECT_LE(report.residual, tolerance);
+    const double k = shake.kinetic_energy(*s.problem, s.state);
+    kinetic += k / steps;
+    e.push_back(k + s.state.potential);
+  }
+  EXPECT_LE(worst_g, tolerance);
+  const auto [lo, hi] = std::minmax_element(e.begin(), e.end());
+  record("energy_range_over_kinetic", (*hi - *lo) / kinetic);
+  EXPECT_LT(*hi - *lo, 1e-3 * kinetic) << "total energy range vs mean kinetic energy";
+}
+
+TEST(Shake, KeepsConstraintsOnAWaterBox) {
+  auto s = water_system();
+  check_shake_keeps_constraints(*s, 0.002, 300);
+}
+
+TEST(Shake, KeepsConstraintsOnABranchedChain) {
+  auto s = polymer_system();
+  check_shake_keeps_constraints(*s, 0.004, 300);
+}
+
+// Leap-frog SHAKE and RATTLE generate the same positions when SHAKE starts from
+// v_{−1/2} = v_0 − (dt/2) M⁻¹ f_0 (everything along G(q_n)ᵀ is absorbed by the multipliers).
+TEST(Shake, TracesTheSamePositionsAsRattle) {
+  auto a = water_system(), b = water_system();
+  const double dt = 0.002;
+  Rattle rattle(config("rattle", dt));
+  rattle.init(*a->problem, a->state);
+  b->state = a->state;
+  kick(b->problem->inverse_mass, b->state.f, -0.5 * dt, b->state.v);
+  Shake shake(config("shake", dt));
+  shake.init(*b->problem, b->state);
+  for (int n = 0; n < 50; ++n) {
+    rattle.step(*a->problem, a->state);
+    shake.step(*b->problem, b->state);
+  }
+  const double difference = (a->state.q - b->state.q).cwiseAbs().maxCoeff();
+  record("max_position_difference", difference);
+  EXPECT_LT(difference, 1e-9);
+}
+
+TEST(Shake, ReportsTheAverageOfTheHalfStepKineticEnergies) {
+  auto s = water_system();
+  Shake shake(config("shake", 0.002));
+  shake.init(*s->problem, s->state);
+  for (int n = 0; n < 5; ++n) {
+    const double reported = shake.kinetic_energy(*s->problem, s->state);
+    const double before = kinetic_energy(s->system.mass, s->state.v);  // K(v_{n−1/2})
+    shake.step(*s->problem, s->state);
+    const double after = kinetic_energy(s->system.mass, s->state.v);  // K(v_{n+1/2})
+    EXPECT_NEAR(reported, 0.5 * (before + after), 1e-12 * reported);
+    EXPECT_GT(std::abs(before - after), 1e-6 * reported);  // so the check can tell them apart
+  }
+}
+
+// Asking for the kinetic energy computes the next half step early; it must never change the
+// trajectory, and a state modified in between (e.g. by a thermostat) must be stepped as modified.
+TEST(Shake, KineticEnergyLookaheadNeverChangesTheTrajectory) {
+  std::unique_ptr<TestSystem> s[4];
+  std::unique_ptr<Shake> shake[4];
+  for (int k = 0; k < 4; ++k) {
+    s[k] = water_system();
+    shake[k] = std::make_unique<Shake>(config("shake", 0.002));
+    shake[k]->init(*s[k]->problem, s[k]->state);
+  }
+  for (int n = 0; n < 10; ++n)
+    for (int k = 0; k < 4; ++k) {
+      if (k % 2 == 0) shake[k]->kinetic_energy(*s[k]->problem, s[k]->state);  // 0 and 2 look ahead
+      if (k >= 2 && n == 4) s[k]->state.v *= 1.001;                         // 2 and 3 are rescaled
+      shake[k]->step(*s[k]->problem, s[k]->state);
+    }
+  for (int k : {0, 2}) {
+    EXPECT_EQ((s[k]->state.q - s[k + 1]->state.q).cwiseAbs().maxCoeff(), 0.0) << k;
+    EXPECT_EQ((s[k]->state.v - s[k + 1]->state.v).cwiseAbs().maxCoeff(), 0.0) << k;
+  }
+  EXPECT_GT((s[0]->state.q - s[2]->state.q).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// Global error at a fixed time against a much finer run: slope ≈ 2 in log–log.
+TEST(Rattle, IsSecondOrder) {
+  const double end_time = 0.1, tolerance = 1e-13;
+  auto trajectory_end = [&](double dt) {
+    auto s = small_system();
+    Rattle rattle(config("rattle", dt, tolerance));
+    rattle.init(*s->problem, s->state);
+    const int steps = static_cast<int>(std::lround(end_time / dt));
+    for (int n = 0; n < steps; ++n) rattle.step(*s->problem, s->state);
+    return Coords(s->state.q);
+  };
+  const Coords reference = trajectory_end(0.002 / 128);
+  std::vector<double> log_dt, log_error;
+  for (double dt : {0.002, 0.001, 0.0005, 0.00025}) {
+    const double error = (trajectory_end(dt) - reference).cwiseAbs().maxCoeff();
+    log_dt.push_back(std::log(dt));
+    log_error.push_back(std::log(error));
+  }
+  const int n = static_cast<int>(log_dt.size());
+  double mx = 0, my = 0, sxy = 0, sxx = 0;
+  for (int k = 0; k < n; ++k) mx += log_dt[k] / n, my += log_error[k] / n;
+  for (int k = 0; k < n; ++k) sxy += (log_dt[k] - mx) * (log_error[k] - my), sxx += (log_dt[k] - mx) * (log_dt[k] - mx);
+  const double slope = sxy / sxx;
+  record("measured_order", slope);
+  EXPECT_NEAR(slope, 2.0, 0.3);
+}
+
+TEST(Rattle, NonConvergenceIsAConvergenceErrorNamingTheStep) {
+  auto s = water_system();
+  IntegratorConfig one = config("rattle", 0.002);
+  one.max_iterations = 1;
+  // The 3-decimal start needs more than one Newton iteration.
+  EXPECT_THROW(Rattle(one).init(*s->problem, s->state), ConvergenceError);
+
+  Rattle(config("rattle", 0.002)).init(*s->problem, s->state);
+  s->state.step = 41;
+  try {
+    Rattle(one).step(*s->problem, s->state);
+    FAIL() << "expected ConvergenceError";
+  } catch (const ConvergenceError& e) {
+    EXPECT_EQ(e.step(), 42);
+    EXPECT_EQ(e.iterations(), 1);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("step 42"), std::string::npos) << what;
+    EXPECT_NE(what.find("atoms "), std::string::npos) << what;
+  }
+}
+
+TEST(Rattle, AbsurdTimeStepIsAConvergenceError) {
+  auto s = water_system();
+  Rattle rattle(config("rattle", 0.05));  // 25 times a sane step for rigid water
+  rattle.init(*s->problem, s->state);
+  EXPECT_THROW(
+      for (int n = 0; n < 20; ++n) rattle.step(*s->problem, s->state), ConvergenceError);
+}
+
+TEST(Shake, AbsurdTimeStepIsAConvergenceError) {
+  auto s = water_system();
+  Shake shake(config("shake", 0.05));
+  shake.init(*s->problem, s->state);
+  EXPECT_THROW(
+      for (int n = 0; n < 20; ++n) shake.step(*s->problem, s->state), ConvergenceError);
+}
+
+}  // namespace
+}  // namespace vimd
