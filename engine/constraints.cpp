@@ -1,6 +1,7 @@
 #include "engine/constraints.hpp"
 
 #include <Eigen/LU>
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <Eigen/SparseLU>
@@ -10,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "engine/errors.hpp"
@@ -197,12 +199,26 @@ struct Constraints::Layout {
   }
 };
 
+namespace {
+
+// SimplicialLDLT on a pattern that the Layout has already ordered for low fill, refactorised
+// through Eigen's factorize_preordered: the public factorize() copies the matrix (a heap
+// allocation) on every call, which a step must not do.
+class PreorderedLDLT
+    : public Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> {
+ public:
+  // `full` holds both triangles; only the upper one is read.
+  void refactorize(const Eigen::SparseMatrix<double>& full) { factorize_preordered<true>(full); }
+};
+
+}  // namespace
+
 struct Constraints::Factorization::Impl {
   struct Dynamic {
     Eigen::MatrixXd dense_matrix;
     Eigen::PartialPivLU<Eigen::MatrixXd> dense;
     Eigen::SparseMatrix<double> matrix;
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+    PreorderedLDLT ldlt;
     Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
     bool ldlt_analysed = false, lu_analysed = false;
     bool symmetric = true;  // which of ldlt / lu holds the current factorisation
@@ -272,7 +288,7 @@ struct Constraints::Factorization::Impl {
     d.symmetric = symmetric;
     if (symmetric) {
       if (!d.ldlt_analysed) d.ldlt.analyzePattern(d.matrix), d.ldlt_analysed = true;
-      d.ldlt.factorize(d.matrix);
+      d.ldlt.refactorize(d.matrix);
       return d.ldlt.info() == Eigen::Success;
     }
     if (!d.lu_analysed) d.lu.analyzePattern(d.matrix), d.lu_analysed = true;
@@ -356,6 +372,33 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
   L.n_atoms = n_atoms;
   L.ones = Eigen::VectorXd::Ones(n_atoms);
   std::vector<std::vector<int>> at_atom(n_atoms);  // local constraint indices per atom, per cluster
+  // The couplings of the constraints at positions [begin, begin + m), in their current order.
+  auto couple = [&](int begin, int m) {
+    std::vector<Layout::Coupling> couplings;
+    for (int a = 0; a < m; ++a) {
+      at_atom[L.atom_i[begin + a]].push_back(a);
+      at_atom[L.atom_j[begin + a]].push_back(a);
+    }
+    for (int a = 0; a < m; ++a)
+      for (int atom : {L.atom_i[begin + a], L.atom_j[begin + a]})
+        for (int b : at_atom[atom]) {
+          if (b == a) continue;
+          const double sa = L.atom_i[begin + a] == atom ? 1.0 : -1.0;
+          const double sb = L.atom_i[begin + b] == atom ? 1.0 : -1.0;
+          couplings.push_back({a, b, atom, sa * sb});
+        }
+    for (int a = 0; a < m; ++a) at_atom[L.atom_i[begin + a]].clear(), at_atom[L.atom_j[begin + a]].clear();
+    return couplings;
+  };
+  auto pattern_of = [](int m, const std::vector<Layout::Coupling>& couplings) {
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int a = 0; a < m; ++a) entries.emplace_back(a, a, 1.0);
+    for (const auto& e : couplings) entries.emplace_back(e.a, e.b, 1.0);
+    Eigen::SparseMatrix<double> pattern(m, m);
+    pattern.setFromTriplets(entries.begin(), entries.end());
+    pattern.makeCompressed();
+    return pattern;
+  };
   for (const auto& members : clusters_) {
     Layout::Cluster cl;
     cl.begin = static_cast<int>(L.atom_i.size());
@@ -370,41 +413,39 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     cl.kind = m <= kSmallMax ? Kind::Small : m <= kDenseMax ? Kind::Dense : Kind::Sparse;
     if (cl.kind == Kind::Small) {
       cl.slot = L.n_small++;
-    } else {
-      cl.slot = static_cast<int>(L.dynamic.size());
-      Layout::Dynamic d;
-      for (int a = 0; a < m; ++a) {
-        at_atom[L.atom_i[cl.begin + a]].push_back(a);
-        at_atom[L.atom_j[cl.begin + a]].push_back(a);
-      }
-      for (int a = 0; a < m; ++a)
-        for (int atom : {L.atom_i[cl.begin + a], L.atom_j[cl.begin + a]}) {
-          for (int b : at_atom[atom]) {
-            if (b == a) continue;
-            const double sa = L.atom_i[cl.begin + a] == atom ? 1.0 : -1.0;
-            const double sb = L.atom_i[cl.begin + b] == atom ? 1.0 : -1.0;
-            d.couplings.push_back({a, b, atom, sa * sb});
-          }
-        }
-      for (int a = 0; a < m; ++a) at_atom[L.atom_i[cl.begin + a]].clear(), at_atom[L.atom_j[cl.begin + a]].clear();
-      if (cl.kind == Kind::Sparse) {
-        std::vector<Eigen::Triplet<double>> entries;
-        for (int a = 0; a < m; ++a) entries.emplace_back(a, a, 1.0);
-        for (const auto& e : d.couplings) entries.emplace_back(e.a, e.b, 1.0);
-        d.pattern.resize(m, m);
-        d.pattern.setFromTriplets(entries.begin(), entries.end());
-        d.pattern.makeCompressed();
-        auto position = [&](int row, int col) {
-          const int* inner = d.pattern.innerIndexPtr();
-          const int* begin = inner + d.pattern.outerIndexPtr()[col];
-          const int* end = inner + d.pattern.outerIndexPtr()[col + 1];
-          return static_cast<int>(std::lower_bound(begin, end, row) - inner);
-        };
-        for (int a = 0; a < m; ++a) d.diagonal_position.push_back(position(a, a));
-        for (const auto& e : d.couplings) d.coupling_position.push_back(position(e.a, e.b));
-      }
-      L.dynamic.push_back(std::move(d));
+      L.clusters.push_back(cl);
+      continue;
     }
+    if (cl.kind == Kind::Sparse) {
+      // Order the cluster's constraints once for little fill in LDLᵀ (a linear chain becomes
+      // tridiagonal whatever order the topology lists it in); the factorisations then need no
+      // permutation per call. perm.indices()[new] = old.
+      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm;
+      Eigen::AMDOrdering<int>()(pattern_of(m, couple(cl.begin, m)), perm);
+      auto reorder = [&](auto& v) {
+        const std::vector<typename std::decay_t<decltype(v)>::value_type> old(v.begin() + cl.begin, v.begin() + cl.end);
+        for (int a = 0; a < m; ++a) v[cl.begin + a] = old[perm.indices()[a]];
+      };
+      reorder(L.atom_i);
+      reorder(L.atom_j);
+      reorder(L.original);
+      reorder(L.length);
+    }
+    cl.slot = static_cast<int>(L.dynamic.size());
+    Layout::Dynamic d;
+    d.couplings = couple(cl.begin, m);
+    if (cl.kind == Kind::Sparse) {
+      d.pattern = pattern_of(m, d.couplings);
+      auto position = [&](int row, int col) {
+        const int* inner = d.pattern.innerIndexPtr();
+        const int* begin = inner + d.pattern.outerIndexPtr()[col];
+        const int* end = inner + d.pattern.outerIndexPtr()[col + 1];
+        return static_cast<int>(std::lower_bound(begin, end, row) - inner);
+      };
+      for (int a = 0; a < m; ++a) d.diagonal_position.push_back(position(a, a));
+      for (const auto& e : d.couplings) d.coupling_position.push_back(position(e.a, e.b));
+    }
+    L.dynamic.push_back(std::move(d));
     L.clusters.push_back(cl);
   }
   layout_ = std::move(layout);
