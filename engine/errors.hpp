@@ -9,13 +9,16 @@ namespace vimd {
 class InputError : public std::runtime_error {
  public:
   InputError(std::string file, int line, const std::string& problem)
-      : std::runtime_error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + problem),
-        file_(std::move(file)),
-        line_(line) {}
+      : std::runtime_error(location(file, line) + problem), file_(std::move(file)), line_(line) {}
   const std::string& file() const { return file_; }
   int line() const { return line_; }  // 0 when the problem is not tied to one line
 
  private:
+  static std::string location(const std::string& file, int line) {
+    std::string where = file;
+    if (line > 0) where.append(":").append(std::to_string(line));
+    return where.append(": ");
+  }
   std::string file_;
   int line_;
 };

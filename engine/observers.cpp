@@ -1,0 +1,252 @@
+#include "engine/observers.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <string>
+
+#include "engine/errors.hpp"
+#include "engine/gro.hpp"
+#include "engine/trr.hpp"
+
+namespace vimd {
+namespace {
+
+std::string number(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.15g", x);
+  return buf;
+}
+
+std::ofstream open_output(const std::filesystem::path& path) {
+  std::ofstream out(path);
+  if (!out) throw InputError(path.string(), 0, "cannot open for writing");
+  return out;
+}
+
+std::string duration_text(double seconds) {
+  char buf[32];
+  const long s = std::lround(seconds);
+  if (s >= 3600)
+    std::snprintf(buf, sizeof buf, "%ldh%02ldm", s / 3600, (s % 3600) / 60);
+  else
+    std::snprintf(buf, sizeof buf, "%ldm%02lds", s / 60, s % 60);
+  return buf;
+}
+
+double ns_per_day(double simulated_ps, double wall_seconds) {
+  return wall_seconds > 0 ? simulated_ps * 1e-3 / (wall_seconds / 86400.0) : 0.0;
+}
+
+}  // namespace
+
+PendingFile::PendingFile(std::filesystem::path final_path)
+    : final_(std::move(final_path)), partial_(final_.string() + ".partial") {}
+
+void PendingFile::commit() const { std::filesystem::rename(partial_, final_); }
+
+// ---------------------------------------------------------------- energies
+
+EnergyWriter::EnergyWriter(const std::filesystem::path& dir, long every)
+    : every_(every), xvg_file_(dir / "energy.xvg"), csv_file_(dir / "energy.csv") {}
+
+void EnergyWriter::begin(const RunInfo& info) {
+  xvg_ = open_output(xvg_file_.partial_path());
+  csv_ = open_output(csv_file_.partial_path());
+  std::vector<std::string> columns = {"potential", "kinetic", "total", "temperature", "constraint_rms"};
+  columns.insert(columns.end(), info.energy_names.begin(), info.energy_names.end());
+  for (const char* m : {"momentum_x", "momentum_y", "momentum_z"}) columns.push_back(m);
+  columns.insert(columns.end(), info.diagnostic_names.begin(), info.diagnostic_names.end());
+
+  xvg_ << "# energies written by vimd (" << info.integrator.name() << ")\n"
+       << "@    title \"vimd energies\"\n@    xaxis  label \"Time (ps)\"\n"
+       << "@    yaxis  label \"kJ/mol, K, amu nm/ps\"\n@TYPE xy\n@ legend on\n";
+  csv_ << "time";
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    xvg_ << "@ s" << k << " legend \"" << columns[k] << "\"\n";
+    csv_ << ',' << columns[k];
+  }
+  csv_ << '\n';
+}
+
+void EnergyWriter::observe(const RunInfo&, const State&, const Sample& s) {
+  std::vector<double> values = {s.time, s.potential, s.kinetic, s.total, s.temperature, s.constraint_rms};
+  values.insert(values.end(), s.energy_terms.begin(), s.energy_terms.end());
+  for (int k = 0; k < 3; ++k) values.push_back(s.momentum[k]);
+  values.insert(values.end(), s.diagnostics.begin(), s.diagnostics.end());
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const std::string text = number(values[k]);
+    xvg_ << (k ? "  " : "") << text;
+    csv_ << (k ? "," : "") << text;
+  }
+  xvg_ << '\n';
+  csv_ << '\n';
+}
+
+void EnergyWriter::finish(const RunInfo&, const State&, const RunTotals&) {
+  xvg_.close();
+  csv_.close();
+  xvg_file_.commit();
+  csv_file_.commit();
+}
+
+// ---------------------------------------------------------------- trajectory
+
+TrajectoryWriter::TrajectoryWriter(const std::filesystem::path& dir, long every)
+    : every_(every), file_(dir / "traj.trr") {}
+
+TrajectoryWriter::~TrajectoryWriter() = default;
+
+void TrajectoryWriter::begin(const RunInfo& info) {
+  writer_ = std::make_unique<TrrWriter>(file_.partial_path(), info.problem.system.n_atoms());
+}
+
+void TrajectoryWriter::observe(const RunInfo& info, const State& state, const Sample&) {
+  writer_->write(state.step, state.time, info.problem.system.box, &state.q, &state.v, &state.f);
+}
+
+void TrajectoryWriter::finish(const RunInfo&, const State&, const RunTotals&) {
+  writer_.reset();
+  file_.commit();
+}
+
+void FinalStructureWriter::finish(const RunInfo& info, const State& state, const RunTotals&) {
+  const System& system = info.problem.system;
+  write_gro(path_, system.title, system, state.q, &state.v, system.box);
+}
+
+// ---------------------------------------------------------------- progress
+
+ProgressReporter::ProgressReporter(std::FILE* out) : out_(out), terminal_(isatty(fileno(out))) {}
+
+void ProgressReporter::begin(const RunInfo&) { start_ = last_print_ = std::chrono::steady_clock::now(); }
+
+void ProgressReporter::observe(const RunInfo& info, const State& state, const Sample&) {
+  const long total = info.last_step - info.first_step;
+  const long done = state.step - info.first_step;
+  if (total <= 0 || done == 0) return;
+  const auto now = std::chrono::steady_clock::now();
+  const double fraction = static_cast<double>(done) / total;
+  const int decile = static_cast<int>(10 * fraction);
+  if (terminal_) {
+    if (done != total && now - last_print_ < std::chrono::milliseconds(250)) return;
+  } else if (decile == last_decile_) {
+    return;
+  }
+  last_print_ = now;
+  last_decile_ = decile;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const double eta = elapsed / fraction - elapsed;
+  const double rate = ns_per_day(done * info.dt, elapsed);
+  if (terminal_) {
+    constexpr int width = 30;
+    const int filled = static_cast<int>(width * fraction);
+    std::string bar(filled, '#');
+    bar.resize(width, '.');
+    std::fprintf(out_, "\r[%s] %3.0f%%  step %ld/%ld  %.2f ns/day  ETA %s ", bar.c_str(), 100 * fraction, done, total,
+                 rate, duration_text(eta).c_str());
+  } else {
+    std::fprintf(out_, "step %ld/%ld (%.0f%%)  %.2f ns/day  ETA %s\n", done, total, 100 * fraction, rate,
+                 duration_text(eta).c_str());
+  }
+  std::fflush(out_);
+}
+
+void ProgressReporter::finish(const RunInfo&, const State&, const RunTotals&) {
+  if (terminal_) std::fputc('\n', out_);
+}
+
+// ---------------------------------------------------------------- summary
+
+EnergyStatistics energy_statistics(const std::vector<double>& time, const std::vector<double>& total, int atoms) {
+  EnergyStatistics s;
+  const std::size_t n = time.size();
+  if (n == 0) return s;
+  double mt = 0, me = 0;
+  for (std::size_t k = 0; k < n; ++k) mt += time[k], me += total[k];
+  mt /= n, me /= n;
+  double stt = 0, ste = 0, see = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    stt += (time[k] - mt) * (time[k] - mt);
+    ste += (time[k] - mt) * (total[k] - me);
+    see += (total[k] - me) * (total[k] - me);
+  }
+  const double slope = stt > 0 ? ste / stt : 0.0;
+  s.mean = me;
+  s.drift = slope / atoms;
+  s.rms_fluctuation = std::sqrt(see / n);
+  s.detrended_fluctuation = std::sqrt(std::max(0.0, see - slope * ste) / n);
+  return s;
+}
+
+SummaryReporter::SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out)
+    : every_(every), dir_(dir), out_(out) {}
+
+void SummaryReporter::observe(const RunInfo& info, const State&, const Sample& s) {
+  time_.push_back(s.time);
+  total_.push_back(s.total);
+  temperature_.push_back(s.temperature);
+  constraint_rms_.push_back(s.constraint_rms);
+  diagnostics_.resize(info.diagnostic_names.size());
+  for (std::size_t k = 0; k < s.diagnostics.size(); ++k)
+    if (std::isfinite(s.diagnostics[k])) diagnostics_[k].push_back(s.diagnostics[k]);
+}
+
+void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals& totals) {
+  const int atoms = info.problem.system.n_atoms();
+  const EnergyStatistics stats = energy_statistics(time_, total_, atoms);
+  auto mean = [](const std::vector<double>& x) {
+    double sum = 0;
+    for (double v : x) sum += v;
+    return x.empty() ? 0.0 : sum / x.size();
+  };
+  double max_constraint = 0;
+  for (double c : constraint_rms_) max_constraint = std::max(max_constraint, c);
+  const double steps = std::max<long>(totals.steps, 1);
+  const double simulated = totals.steps * info.dt;
+  const double rate = ns_per_day(simulated, totals.wall_seconds);
+
+  std::fprintf(out_,
+               "\nSummary (%s, %d atoms, %ld steps of %g ps = %g ps)\n"
+               "  total energy      mean %.6f kJ/mol\n"
+               "  energy drift      %.4e kJ/mol/ps per atom (linear fit over %zu samples)\n"
+               "  RMS fluctuation   %.4e kJ/mol (about the mean), %.4e kJ/mol (about the fit)\n"
+               "  temperature       mean %.2f K\n"
+               "  constraints       max RMS relative deviation %.3e\n"
+               "  cost              %.3f s wall, %.3f ms/step, %.2f ns/day\n"
+               "                    %.2f force evaluations/step, %.2f Hessian-vector products/step, "
+               "%ld neighbour-list builds\n",
+               info.integrator.name().c_str(), atoms, totals.steps, info.dt, simulated, stats.mean, stats.drift,
+               time_.size(), stats.rms_fluctuation, stats.detrended_fluctuation, mean(temperature_), max_constraint,
+               totals.wall_seconds, 1e3 * totals.wall_seconds / steps, rate, totals.force_evaluations / steps,
+               totals.hessian_evaluations / steps, totals.neighbor_rebuilds);
+  for (std::size_t k = 0; k < diagnostics_.size(); ++k)
+    std::fprintf(out_, "  %-17s mean %.4g\n", info.diagnostic_names[k].c_str(), mean(diagnostics_[k]));
+  std::fflush(out_);
+
+  PendingFile json(dir_ / "summary.json");
+  {
+    std::ofstream out = open_output(json.partial_path());
+    out << "{\n  \"integrator\": \"" << info.integrator.name() << "\",\n"
+        << "  \"atoms\": " << atoms << ",\n  \"steps\": " << totals.steps << ",\n"
+        << "  \"dt\": " << number(info.dt) << ",\n"
+        << "  \"mean_total_energy\": " << number(stats.mean) << ",\n"
+        << "  \"drift_per_atom\": " << number(stats.drift) << ",\n"
+        << "  \"rms_fluctuation\": " << number(stats.rms_fluctuation) << ",\n"
+        << "  \"detrended_fluctuation\": " << number(stats.detrended_fluctuation) << ",\n"
+        << "  \"mean_temperature\": " << number(mean(temperature_)) << ",\n"
+        << "  \"max_constraint_rms\": " << number(max_constraint) << ",\n"
+        << "  \"wall_seconds\": " << number(totals.wall_seconds) << ",\n"
+        << "  \"ns_per_day\": " << number(rate) << ",\n"
+        << "  \"force_evaluations_per_step\": " << number(totals.force_evaluations / steps) << ",\n"
+        << "  \"hessian_evaluations_per_step\": " << number(totals.hessian_evaluations / steps) << ",\n"
+        << "  \"neighbor_rebuilds\": " << totals.neighbor_rebuilds << ",\n"
+        << "  \"mean_iterations\": " << number(totals.solver_iterations / steps);
+    for (std::size_t k = 0; k < diagnostics_.size(); ++k)
+      out << ",\n  \"mean_" << info.diagnostic_names[k] << "\": " << number(mean(diagnostics_[k]));
+    out << "\n}\n";
+  }
+  json.commit();
+}
+
+}  // namespace vimd

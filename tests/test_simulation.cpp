@@ -1,0 +1,168 @@
+// The run loop and its observers: samples, energy files, the end-of-run statistics, and the
+// rule that a failed run leaves only ".partial" files.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "engine/errors.hpp"
+#include "engine/observers.hpp"
+#include "engine/simulation.hpp"
+
+using namespace vimd;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Independent harmonic springs to the origin: V = ½ k |q|².
+class Springs : public ForceTerm {
+ public:
+  explicit Springs(double k) : k_(k) {}
+  std::vector<std::string> energy_names() const override { return {"springs"}; }
+  void add_forces(const Coords& q, Coords& f, std::span<double> e) override {
+    f -= k_ * q;
+    e[0] += 0.5 * k_ * q.squaredNorm();
+  }
+  void add_hessian_vector(const Coords&, const Coords& u, Coords& out) override { out += k_ * u; }
+
+ private:
+  double k_;
+};
+
+// Velocity Verlet written out here so the loop is tested without the integrators library.
+class TestVerlet : public Integrator {
+ public:
+  explicit TestVerlet(double dt, long fail_at = -1) : dt_(dt), fail_at_(fail_at) {}
+  std::string name() const override { return "test-verlet"; }
+  void init(Problem& p, State& s) override { evaluate(p, s); }
+  StepReport step(Problem& p, State& s) override {
+    if (s.step == fail_at_) throw ConvergenceError("test solver", s.step, 7, 1e-3);
+    const Eigen::RowVectorXd w = p.inverse_mass.transpose();
+    s.v += 0.5 * dt_ * (s.f.array().rowwise() * w.array()).matrix();
+    s.q += dt_ * s.v;
+    evaluate(p, s);
+    s.v += 0.5 * dt_ * (s.f.array().rowwise() * w.array()).matrix();
+    StepReport r;
+    r.iterations = 2;
+    r.diagnostics = {static_cast<double>(s.step)};
+    return r;
+  }
+  std::vector<std::string> diagnostic_names() const override { return {"probe"}; }
+
+ private:
+  void evaluate(Problem& p, State& s) {
+    Forces f;
+    p.force_field.compute(s.q, f);
+    s.f = f.f;
+    s.potential = f.potential;
+    s.energy_terms = f.terms;
+  }
+  double dt_;
+  long fail_at_;
+};
+
+struct Fixture {
+  System system;
+  ForceField force_field;
+  Constraints constraints;
+  State state;
+  Fixture() {
+    const int n = 4;
+    system.title = "springs";
+    system.mass = Eigen::VectorXd::LinSpaced(n, 1.0, 2.5);
+    system.charge = Eigen::VectorXd::Zero(n);
+    system.type.assign(n, 0);
+    system.atom_names.assign(n, "X");
+    system.residue_names.assign(n, "SPR");
+    for (int i = 0; i < n; ++i) system.residue_numbers.push_back(i + 1), system.molecule.push_back(i);
+    system.exclusions.resize(n);
+    force_field.add(std::make_unique<Springs>(50.0));
+    state.q = Coords::Random(3, n);
+    state.v = Coords::Random(3, n);
+  }
+  Problem problem() { return Problem{system, force_field, constraints, system.mass.cwiseInverse()}; }
+};
+
+std::vector<std::string> lines(const fs::path& p) {
+  std::ifstream in(p);
+  std::vector<std::string> out;
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+}  // namespace
+
+TEST(EnergyStatistics, RecoversSlopeAndFluctuationOfALine) {
+  std::vector<double> t, e;
+  for (int k = 0; k < 101; ++k) {
+    t.push_back(0.1 * k);
+    e.push_back(-100.0 + 0.5 * t.back() + (k % 2 ? 0.01 : -0.01));
+  }
+  const EnergyStatistics s = energy_statistics(t, e, 10);
+  EXPECT_NEAR(s.drift, 0.05, 1e-4);  // 0.5 kJ/mol/ps over 10 atoms
+  EXPECT_NEAR(s.detrended_fluctuation, 0.01, 1e-3);
+  EXPECT_GT(s.rms_fluctuation, 1.0);  // about the mean, the drift dominates
+}
+
+TEST(Simulation, WritesEnergySeriesWithTheDocumentedColumns) {
+  Fixture fx;
+  Problem problem = fx.problem();
+  TestVerlet integrator(0.01);
+  const fs::path dir = fs::temp_directory_path() / "vimd_test_simulation_ok";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Simulation sim(problem, integrator, 0.01);
+  sim.add_observer(std::make_unique<EnergyWriter>(dir, 10));
+  std::FILE* sink = std::tmpfile();
+  sim.add_observer(std::make_unique<SummaryReporter>(dir, 10, sink));
+  const RunTotals totals = sim.run(fx.state, 100);
+
+  EXPECT_EQ(totals.steps, 100);
+  EXPECT_EQ(totals.force_evaluations, 101);  // init + one per step
+  EXPECT_EQ(fx.state.step, 100);
+  EXPECT_NEAR(fx.state.time, 1.0, 1e-12);
+  const auto csv = lines(dir / "energy.csv");
+  ASSERT_EQ(csv.size(), 1u + 11u);  // header + steps 0, 10, ..., 100
+  EXPECT_EQ(csv[0],
+            "time,potential,kinetic,total,temperature,constraint_rms,springs,momentum_x,momentum_y,momentum_z,probe");
+  EXPECT_TRUE(fs::exists(dir / "energy.xvg"));
+  EXPECT_TRUE(fs::exists(dir / "summary.json"));
+  EXPECT_FALSE(fs::exists(dir / "energy.csv.partial"));
+
+  // Verlet on springs at ω dt = 0.07: the total energy in the file stays within 1e-2 relative.
+  double e_min = 1e300, e_max = -1e300;
+  for (std::size_t k = 1; k < csv.size(); ++k) {
+    std::stringstream row(csv[k]);
+    std::string cell;
+    for (int col = 0; col < 4; ++col) std::getline(row, cell, ',');
+    e_min = std::min(e_min, std::stod(cell)), e_max = std::max(e_max, std::stod(cell));
+  }
+  EXPECT_LT((e_max - e_min) / e_max, 1e-2);
+  std::fclose(sink);
+}
+
+TEST(Simulation, FailedRunLeavesOnlyPartialFiles) {
+  Fixture fx;
+  Problem problem = fx.problem();
+  TestVerlet integrator(0.01, /*fail_at=*/30);
+  const fs::path dir = fs::temp_directory_path() / "vimd_test_simulation_fail";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Simulation sim(problem, integrator, 0.01);
+  sim.add_observer(std::make_unique<EnergyWriter>(dir, 10));
+  std::FILE* sink = std::tmpfile();
+  sim.add_observer(std::make_unique<SummaryReporter>(dir, 10, sink));
+  try {
+    sim.run(fx.state, 100);
+    FAIL() << "the run should have stopped";
+  } catch (const ConvergenceError& e) {
+    EXPECT_EQ(e.step(), 30);
+    EXPECT_EQ(e.iterations(), 7);
+    EXPECT_NE(std::string(e.what()).find("step 30"), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(dir / "energy.csv"));
+  EXPECT_FALSE(fs::exists(dir / "summary.json"));
+  EXPECT_TRUE(fs::exists(dir / "energy.csv.partial"));
+  std::fclose(sink);
+}

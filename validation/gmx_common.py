@@ -1,0 +1,78 @@
+"""Shared helpers for the GROMACS cross-checks: write an .mdp, run gmx/gmx_d quietly, read .xvg
+series, run vimd. Only Debian's /usr/bin/python3 has the packages these scripts use."""
+import json
+import os
+import pathlib
+import subprocess
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+VIMD = ROOT / "build" / "vimd"
+
+
+def run(cmd, cwd, stdin=None):
+    """Run a command, raising with its output when it fails."""
+    p = subprocess.run(cmd, cwd=cwd, input=stdin, text=True, capture_output=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
+    return p.stdout
+
+
+def write_mdp(path, **settings):
+    path.write_text("".join(f"{k.replace('_', '-')} = {v}\n" for k, v in settings.items()))
+
+
+def nonbonded_mdp(cutoff, vdw_modifier, vdw_switch, epsilon_rf, coulomb="reaction-field", rlist=None):
+    """GROMACS settings matching a vimd [forcefield] table, with a fixed pair list of radius rlist
+    (default: the cut-off, exact for reruns) rebuilt every 10 steps."""
+    s = dict(cutoff_scheme="Verlet", verlet_buffer_tolerance=-1, rlist=rlist or cutoff, nstlist=10,
+             coulombtype="reaction-field" if coulomb == "reaction-field" else "cut-off",
+             rcoulomb=cutoff, epsilon_rf=epsilon_rf, vdwtype="cut-off", vdw_modifier=vdw_modifier,
+             rvdw=cutoff, DispCorr="no", pbc="xyz")
+    if vdw_modifier in ("potential-switch", "force-switch"):
+        s["rvdw_switch"] = vdw_switch
+    return s
+
+
+def read_xvg(path):
+    """Columns of an .xvg file as lists of floats, and the legends."""
+    legends, rows = [], []
+    for line in pathlib.Path(path).read_text().splitlines():
+        if line.startswith("@") and "legend \"" in line:
+            legends.append(line.split("legend \"")[1].rstrip("\""))
+        elif line and line[0] not in "#@":
+            rows.append([float(x) for x in line.split()])
+    return legends, [list(c) for c in zip(*rows)]
+
+
+def gmx_energy(gmx, edr, terms, cwd):
+    """Time series of named energy terms from an .edr file."""
+    out = pathlib.Path(cwd) / "energy_terms.xvg"
+    run([gmx, "energy", "-f", edr, "-o", out], cwd, stdin="\n".join(terms) + "\n\n")
+    legends, cols = read_xvg(out)
+    return {name: cols[k + 1] for k, name in enumerate(legends)} | {"time": cols[0]}
+
+
+def vimd_config(path, structure, topology, forcefield, integrator=None, output=None):
+    """Write a vimd TOML run file with absolute input paths."""
+    def table(name, d):
+        lines = [f"[{name}]"]
+        for k, v in d.items():
+            lines.append(f"{k} = {json.dumps(v)}")
+        return "\n".join(lines) + "\n"
+    text = table("system", {"structure": str(structure), "topology": str(topology)})
+    text += table("forcefield", forcefield)
+    if integrator:
+        text += table("integrator", integrator)
+    if output:
+        text += table("output", output)
+    pathlib.Path(path).write_text(text)
+
+
+def vimd(*args, threads=None):
+    env = dict(os.environ)
+    if threads:
+        env["OMP_NUM_THREADS"] = str(threads)
+    p = subprocess.run([str(VIMD), *map(str, args)], text=True, capture_output=True, env=env)
+    if p.returncode != 0:
+        raise RuntimeError(f"vimd {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
+    return p.stdout
