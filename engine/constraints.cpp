@@ -29,7 +29,7 @@ constexpr int kDenseMax = 16;
 // exact Newton matrix G(q) W G(q_ref)ᵀ.
 constexpr double kChordRate = 0.25;
 // OpenMP only pays off above this many constraints.
-constexpr int kParallelMin = 256;
+constexpr int kParallelMin = 1000;
 
 enum class Kind { Small, Dense, Sparse };
 
@@ -271,7 +271,8 @@ struct Constraints::Factorization::Impl {
     const Layout::Dynamic& ld = L.dynamic[cl.slot];
     if (cl.kind == Kind::Dense) {
       d.dense_matrix.setZero();
-      for (int a = 0; a < m; ++a) d.dense_matrix(a, a) = L.coefficient(b + a, b + a, w) * rl.col(b + a).dot(rr.col(b + a));
+      for (int a = 0; a < m; ++a)
+        d.dense_matrix(a, a) = L.coefficient(b + a, b + a, w) * rl.col(b + a).dot(rr.col(b + a));
       for (const auto& e : ld.couplings)
         d.dense_matrix(e.a, e.b) = e.sign * w[e.atom] * rl.col(b + e.a).dot(rr.col(b + e.b));
       d.dense.compute(d.dense_matrix);
@@ -342,7 +343,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
       throw InputError("topology", 0, name + ": atom index outside 1.." + std::to_string(n_atoms));
     if (c.i == c.j) throw InputError("topology", 0, name + " joins an atom to itself");
     if (!(c.length > 0) || !std::isfinite(c.length))
-      throw InputError("topology", 0, name + ": length must be positive, got " + std::to_string(c.length));
+      throw InputError("topology", 0, name + ": length must be positive, got " + format_number(c.length));
     pairs.emplace_back(std::min(c.i, c.j), std::max(c.i, c.j));
   }
   std::sort(pairs.begin(), pairs.end());
@@ -629,8 +630,8 @@ void measure(const Layout& L, const typename Layout::Cluster& cl, const Coords& 
 
 }  // namespace
 
-int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance,
-                                 long step, int max_iterations, Eigen::VectorXd* lambda_out) const {
+int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance, long step,
+                                 int max_iterations, Eigen::VectorXd* lambda_out) const {
   if (lambda_out) lambda_out->setZero(size());
   if (empty()) return 0;
   if (!(tolerance > 0)) throw std::invalid_argument("constraint tolerance must be positive");
@@ -764,8 +765,7 @@ void Constraints::project_velocities(const Coords& q, Coords& v, const Eigen::Ve
   }
   for (int c = 0; c < nc; ++c)
     if (ws.singular[c])
-      throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " +
-                               L.describe(L.clusters[c].begin) +
+      throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " + L.describe(L.clusters[c].begin) +
                                " is singular (the constraints are linearly dependent at these positions)");
   if (mu_out)
     for (int p = 0; p < size(); ++p) (*mu_out)[L.original[p]] = ws.delta[p];

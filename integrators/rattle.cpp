@@ -7,8 +7,8 @@ namespace vimd {
 int constrain_start(const Problem& problem, State& state, double tolerance, int max_iterations) {
   if (problem.constraints.empty()) return 0;
   const Coords q_ref = state.q;
-  const int iterations = problem.constraints.solve_positions(q_ref, state.q, problem.inverse_mass, tolerance,
-                                                             state.step, max_iterations);
+  const int iterations =
+      problem.constraints.solve_positions(q_ref, state.q, problem.inverse_mass, tolerance, state.step, max_iterations);
   problem.constraints.project_velocities(state.q, state.v, problem.inverse_mass);
   return iterations;
 }

@@ -35,8 +35,7 @@ void Shake::compute_half_step(const Problem& problem, const State& state, bool k
   h.iterations = 0;
   h.residual = 0;
   if (!constraints.empty()) {
-    h.iterations =
-        constraints.solve_positions(state.q, h.q, w, tolerance_, state.step + 1, max_iterations_, &h.lambda);
+    h.iterations = constraints.solve_positions(state.q, h.q, w, tolerance_, state.step + 1, max_iterations_, &h.lambda);
     // Equivalent to v_{n+1/2} = (q_{n+1} − q_n)/dt without the cancellation in q_{n+1} − q_n.
     h.lambda /= dt_;
     constraints.add_GT(state.q, h.lambda, h.v, w);
@@ -65,8 +64,8 @@ StepReport Shake::step(Problem& problem, State& state) {
 
 double Shake::kinetic_energy(const Problem& problem, const State& state) const {
   if (!half_step_matches(state)) compute_half_step(problem, state, true);
-  return 0.5 * (vimd::kinetic_energy(problem.system.mass, state.v) +
-                vimd::kinetic_energy(problem.system.mass, next_.v));
+  return 0.5 *
+         (vimd::kinetic_energy(problem.system.mass, state.v) + vimd::kinetic_energy(problem.system.mass, next_.v));
 }
 
 }  // namespace vimd

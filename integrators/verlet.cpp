@@ -1,6 +1,7 @@
 #include "integrators/verlet.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -28,20 +29,28 @@ void check_start(const Problem& problem, State& state) {
                                 std::to_string(n) + " atoms");
   if (state.v.cols() == 0) state.v = Coords::Zero(3, n);
   if (state.v.cols() != n)
-    throw std::invalid_argument("integrator: the state has " + std::to_string(state.v.cols()) +
-                                " velocities for " + std::to_string(n) + " atoms");
+    throw std::invalid_argument("integrator: the state has " + std::to_string(state.v.cols()) + " velocities for " +
+                                std::to_string(n) + " atoms");
 }
+
+namespace {
+std::string number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", x);
+  return buf;
+}
+}  // namespace
 
 void check_step_config(const IntegratorConfig& config) {
   if (!(config.dt > 0) || !std::isfinite(config.dt))
-    throw InputError("[integrator]", 0, "dt must be a positive time step in ps, got " + std::to_string(config.dt));
+    throw InputError("[integrator]", 0, "dt must be a positive time step in ps, got " + number(config.dt));
   if (!(config.constraint_tolerance > 0 && config.constraint_tolerance < 1))
-    throw InputError("[integrator]", 0,
-                     "constraint_tolerance is relative and must lie in (0, 1), got " +
-                         std::to_string(config.constraint_tolerance));
+    throw InputError(
+        "[integrator]", 0,
+        "constraint_tolerance is relative and must lie in (0, 1), got " + number(config.constraint_tolerance));
   if (config.max_iterations < 1)
-    throw InputError("[integrator]", 0, "max_iterations must be at least 1, got " +
-                                            std::to_string(config.max_iterations));
+    throw InputError("[integrator]", 0,
+                     "max_iterations must be at least 1, got " + std::to_string(config.max_iterations));
 }
 
 VelocityVerlet::VelocityVerlet(const IntegratorConfig& config) : dt_(config.dt) { check_step_config(config); }

@@ -26,13 +26,14 @@ struct Zoo {
   Constraints constraints;
 };
 
-Zoo make_zoo(std::uint64_t seed = 7) {
+Zoo make_zoo(int waters = 40) {
+  const std::uint64_t seed = 7;
   Zoo z;
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uniform(0.0, 3.0);
   z.system.box.length = Vec3::Constant(3.0);
   std::vector<Bond> springs;
-  for (int k = 0; k < 40; ++k) add_water(z.system, z.q, Vec3(uniform(rng), uniform(rng), uniform(rng)), rng);
+  for (int k = 0; k < waters; ++k) add_water(z.system, z.q, Vec3(uniform(rng), uniform(rng), uniform(rng)), rng);
   add_chain(z.system, z.q, 2, 0, 0, 0.12, Vec3(0.5, 0.5, 0.5), rng, springs);
   add_chain(z.system, z.q, 3, 0, 0, 0.13, Vec3(1.5, 0.5, 0.5), rng, springs);
   add_chain(z.system, z.q, 5, 0, 0, 0.15, Vec3(0.5, 1.5, 0.5), rng, springs);
@@ -107,8 +108,7 @@ TEST(Constraints, BondVectorsUseTheMinimumImage) {
   EXPECT_LT(g.cwiseAbs().maxCoeff(), 1e-15);
   Coords r;
   z.constraints.vectors(z.q, r);
-  for (int a = 0; a < z.constraints.size(); ++a)
-    EXPECT_NEAR(r.col(a).norm(), z.system.constraints[a].length, 1e-14);
+  for (int a = 0; a < z.constraints.size(); ++a) EXPECT_NEAR(r.col(a).norm(), z.system.constraints[a].length, 1e-14);
 }
 
 TEST(Constraints, ApplyGIsTheDerivativeOfG) {
@@ -188,8 +188,7 @@ TEST(Constraints, FactorizationMatchesDenseSolve) {
     z.constraints.factorize(*k.left, *k.right, k.weighted ? z.inverse_mass : Eigen::VectorXd(), factorization);
     Eigen::VectorXd w3(3 * w.size());
     for (int i = 0; i < w.size(); ++i) w3.segment<3>(3 * i).setConstant(w[i]);
-    const Eigen::MatrixXd S =
-        dense_G(z.system, *k.left) * w3.asDiagonal() * dense_G(z.system, *k.right).transpose();
+    const Eigen::MatrixXd S = dense_G(z.system, *k.left) * w3.asDiagonal() * dense_G(z.system, *k.right).transpose();
     const Eigen::VectorXd rhs = random_vector(z.constraints.size(), rng);
     const Eigen::VectorXd expected = S.partialPivLu().solve(rhs);
     Eigen::VectorXd x = rhs;
@@ -246,7 +245,9 @@ TEST(Constraints, ProjectVelocitiesIsTheMassOrthogonalProjection) {
   z.constraints.add_GT(z.q, -mu, rebuilt, z.inverse_mass);
   EXPECT_LT((rebuilt - v).cwiseAbs().maxCoeff(), 1e-13);
   // Pythagoras in the kinetic-energy metric: the removed part is M-orthogonal to the rest.
-  auto kinetic = [&](const Coords& x) { return (x.colwise().squaredNorm().transpose().array() * z.system.mass.array()).sum(); };
+  auto kinetic = [&](const Coords& x) {
+    return (x.colwise().squaredNorm().transpose().array() * z.system.mass.array()).sum();
+  };
   EXPECT_NEAR(kinetic(v0), kinetic(v) + kinetic(v0 - v), 1e-12 * kinetic(v0));
   // A projection: applying it again changes nothing.
   Coords again = v;
@@ -255,8 +256,8 @@ TEST(Constraints, ProjectVelocitiesIsTheMassOrthogonalProjection) {
 }
 
 TEST(Constraints, OneAndTwoThreadsGiveIdenticalResults) {
-  Zoo z = make_zoo();
-  ASSERT_GT(z.constraints.size(), 256);  // large enough for the parallel paths
+  Zoo z = make_zoo(300);
+  ASSERT_GT(z.constraints.size(), 1000);  // large enough for the parallel paths
   std::mt19937_64 rng(8);
   const Coords start = z.q + random_coords(z.system.n_atoms(), 0.01, rng);
   const Coords v0 = random_coords(z.system.n_atoms(), 1.0, rng);

@@ -7,6 +7,9 @@
 #include <random>
 
 #include "engine/errors.hpp"
+#include "engine/gro.hpp"
+#include "engine/topology.hpp"
+#include "forcefields/registry.hpp"
 #include "integrators/rattle.hpp"
 #include "integrators/registry.hpp"
 #include "integrators/shake.hpp"
@@ -193,8 +196,9 @@ TEST(Rattle, WithoutConstraintsIsVelocityVerlet) {
   EXPECT_EQ((a->state.v - b->state.v).cwiseAbs().maxCoeff(), 0.0);
 }
 
-// RATTLE keeps |g| and |G v| at the tolerance, step after step, and conserves energy and momentum.
-void check_rattle_keeps_constraints(TestSystem& s, double dt, int steps) {
+// RATTLE keeps |g| and |G v| at the tolerance, step after step, and conserves energy and momentum:
+// the total energy stays within energy_band × (mean kinetic energy).
+void check_rattle_keeps_constraints(TestSystem& s, double dt, int steps, double energy_band = 1e-3) {
   const double tolerance = 1e-10;
   Rattle rattle(config("rattle", dt, tolerance));
   ASSERT_GT(s.constraints.max_relative_deviation(s.state.q), 1e-6);  // the start is off the manifold
@@ -236,7 +240,7 @@ void check_rattle_keeps_constraints(TestSystem& s, double dt, int steps) {
   EXPECT_LT((momentum(s) - p0).norm(), 1e-10 * (1 + s.system.mass.sum()));
   const auto [lo, hi] = std::minmax_element(e.begin(), e.end());
   record("energy_range_over_kinetic", (*hi - *lo) / kinetic);
-  EXPECT_LT(*hi - *lo, 1e-3 * kinetic) << "total energy range vs mean kinetic energy";
+  EXPECT_LT(*hi - *lo, energy_band * kinetic) << "total energy range vs mean kinetic energy";
 }
 
 TEST(Rattle, KeepsConstraintsOnAWaterBox) {
@@ -251,7 +255,7 @@ TEST(Rattle, KeepsConstraintsOnABranchedChain) {
   check_rattle_keeps_constraints(*s, 0.004, 300);
 }
 
-void check_shake_keeps_constraints(TestSystem& s, double dt, int steps) {
+void check_shake_keeps_constraints(TestSystem& s, double dt, int steps, double energy_band = 1e-3) {
   const double tolerance = 1e-10;
   Shake shake(config("shake", dt, tolerance));
   shake.init(*s.problem, s.state);
@@ -269,7 +273,7 @@ void check_shake_keeps_constraints(TestSystem& s, double dt, int steps) {
   EXPECT_LE(worst_g, tolerance);
   const auto [lo, hi] = std::minmax_element(e.begin(), e.end());
   record("energy_range_over_kinetic", (*hi - *lo) / kinetic);
-  EXPECT_LT(*hi - *lo, 1e-3 * kinetic) << "total energy range vs mean kinetic energy";
+  EXPECT_LT(*hi - *lo, energy_band * kinetic) << "total energy range vs mean kinetic energy";
 }
 
 TEST(Shake, KeepsConstraintsOnAWaterBox) {
@@ -280,6 +284,37 @@ TEST(Shake, KeepsConstraintsOnAWaterBox) {
 TEST(Shake, KeepsConstraintsOnABranchedChain) {
   auto s = polymer_system();
   check_shake_keeps_constraints(*s, 0.004, 300);
+}
+
+// The shipped 216-molecule SPC/E box (3-decimal .gro with velocities) with the real force field
+// (reaction field, potential-shift LJ, cut-off 0.9 nm), as its run file sets it up.
+std::unique_ptr<TestSystem> spce_system() {
+  const std::filesystem::path dir = std::filesystem::path(VIMD_SOURCE_DIR) / "inputs" / "water216";
+  auto s = std::make_unique<TestSystem>();
+  s->system = read_topology(dir / "topol.top");
+  const GroFrame frame = read_gro(dir / "conf.gro");
+  apply_structure(s->system, frame, dir / "conf.gro");
+  s->state.q = frame.x;
+  s->state.v = frame.v.value();
+  ForceFieldConfig ff;
+  ff.neighbor_skin = 0.03;
+  s->field = make_force_field(s->system, ff);
+  s->constraints = Constraints(s->system.constraints, s->system.n_atoms(), s->system.box);
+  s->problem = std::make_unique<Problem>(Problem{s->system, *s->field, s->constraints, s->system.mass.cwiseInverse()});
+  return s;
+}
+
+// Measured over 200 steps (the test runs 100): energy range 1.2e-3 (RATTLE) and 2.4e-3 (SHAKE,
+// whose half-step averaged kinetic energy fluctuates more, as with GROMACS's leap-frog) of the
+// kinetic energy; the RMS fluctuation falls 3.7-fold from 2 to 1 fs: the integrator's, not a drift.
+TEST(Rattle, KeepsSpceWaterRigidWithTheRealForceField) {
+  auto s = spce_system();
+  check_rattle_keeps_constraints(*s, 0.002, 100, 4e-3);
+}
+
+TEST(Shake, KeepsSpceWaterRigidWithTheRealForceField) {
+  auto s = spce_system();
+  check_shake_keeps_constraints(*s, 0.002, 100, 6e-3);
 }
 
 // Leap-frog SHAKE and RATTLE generate the same positions when SHAKE starts from
@@ -329,7 +364,7 @@ TEST(Shake, KineticEnergyLookaheadNeverChangesTheTrajectory) {
   for (int n = 0; n < 10; ++n)
     for (int k = 0; k < 4; ++k) {
       if (k % 2 == 0) shake[k]->kinetic_energy(*s[k]->problem, s[k]->state);  // 0 and 2 look ahead
-      if (k >= 2 && n == 4) s[k]->state.v *= 1.001;                         // 2 and 3 are rescaled
+      if (k >= 2 && n == 4) s[k]->state.v *= 1.001;                           // 2 and 3 are rescaled
       shake[k]->step(*s[k]->problem, s[k]->state);
     }
   for (int k : {0, 2}) {
@@ -391,16 +426,14 @@ TEST(Rattle, AbsurdTimeStepIsAConvergenceError) {
   auto s = water_system();
   Rattle rattle(config("rattle", 0.05));  // 25 times a sane step for rigid water
   rattle.init(*s->problem, s->state);
-  EXPECT_THROW(
-      for (int n = 0; n < 20; ++n) rattle.step(*s->problem, s->state), ConvergenceError);
+  EXPECT_THROW(for (int n = 0; n < 20; ++n) rattle.step(*s->problem, s->state), ConvergenceError);
 }
 
 TEST(Shake, AbsurdTimeStepIsAConvergenceError) {
   auto s = water_system();
   Shake shake(config("shake", 0.05));
   shake.init(*s->problem, s->state);
-  EXPECT_THROW(
-      for (int n = 0; n < 20; ++n) shake.step(*s->problem, s->state), ConvergenceError);
+  EXPECT_THROW(for (int n = 0; n < 20; ++n) shake.step(*s->problem, s->state), ConvergenceError);
 }
 
 }  // namespace
