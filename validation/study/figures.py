@@ -28,7 +28,7 @@ def _save(fig, path):
 def _log_axes(ax, x=True, y=True):
     """Log scales where there is data to scale; an empty panel says so instead of failing."""
     lim = ax.dataLim
-    if not (np.all(np.isfinite(lim.get_points())) and lim.x0 > 0 and (lim.y0 > 0 or not y)):
+    if not (np.all(np.isfinite(lim.get_points())) and (lim.x0 > 0 or not x) and (lim.y0 > 0 or not y)):
         ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes, color="0.4")
         return
     if x:
@@ -209,7 +209,7 @@ def constraints(deviations, resolution, rms_series, path):
     axes[0].set_xlabel("|r_ij - d| / d of every SETTLE distance in every frame (MDAnalysis)")
     axes[0].set_ylabel("count")
     axes[0].set_title("Constraint-length deviations from the trajectories")
-    _legend(axes[0], fontsize=8)
+    _legend(axes[0], fontsize=8, loc="upper left")
     for key, (label, t, rms) in rms_series.items():
         axes[1].plot(t, np.maximum(rms, 1e-18), label=label, color=_style(key)["color"], linewidth=0.8)
     _log_axes(axes[1], x=False)

@@ -3,7 +3,7 @@ number names the command of the run it comes from; derived numbers name the func
 them (in validation/study)."""
 import math
 
-from .plan import FS, GMX_VARIANTS, RATTLE, SCAN_VARIANTS, fs, order_variants
+from .plan import fs
 
 NOT_AVAILABLE = "not available in this build"
 
@@ -178,7 +178,11 @@ def crossover_block(sres):
                 rank = (how == "measured", threshold)
                 if best is None or rank > best[0]:
                     best = (rank, label, threshold, how)
-    if best is None:
+    ran = [k for k, runs in sres["series"].items() if k.startswith("vi-") and any(r["status"] == "ok" for r in runs)]
+    if not ran:
+        headline = (f"On {sres['system']}, no variational integrator has a stable run in this build (see the "
+                    f"availability table), so no crossover can be stated.")
+    elif best is None:
         headline = (f"On {sres['system']}, no variational integrator is cheaper than RATTLE in wall time at any "
                     f"accuracy measured here, nor by power-law extrapolation of the measured cost curves.")
     else:
@@ -245,16 +249,24 @@ def long_section(long):
     for key, r in long["runs"].items():
         if "stats" in r:
             s = r["stats"]
+            change = s["drift_per_atom"] * r["atoms"] * r["ps"]
+            ratio = abs(change) / s["rms_fluctuation"] if s["rms_fluctuation"] > 0 else float("inf")
+            verdict = "bounded" if ratio < 1 else "drifting"
             rows.append([r["label"], num(r["ps"]), status_text(r), num(s["drift_per_atom"]), num(s["rms_fluctuation"]),
-                         num(s["max_excursion"]), num(r["cost"]["wall_per_ps"]), code(r["command"])])
+                         num(s["max_excursion"]), num(change), f"{num(ratio, 3)} ({verdict})",
+                         num(r["cost"]["wall_per_ps"]), code(r["command"])])
         else:
-            rows.append([r["label"], num(r["ps"]), status_text(r), "-", "-", "-", "-", code(r.get("command"))])
+            rows.append([r["label"], num(r["ps"]), status_text(r)] + ["-"] * 6 + [code(r.get("command"))])
     return "\n".join([
         f"`inputs/{long['system']}` ({long['atoms']} atoms; {long['note']}), dt = {fs(long['dt'])} fs, "
         f"{long['ps']:g} ps NVE per integrator, frames every {long['frame_ps']:g} ps for section 5.\n",
         "![long runs](long_runs.png)\n",
+        "Bounded or drifting: the energy change over the whole run implied by the fitted drift, compared with "
+        "the RMS fluctuation about the fit; below 1 the drift is hidden in the fluctuation (bounded), above 1 "
+        "it is not (drifting).\n",
         table(["integrator", "length (ps)", "status", "drift (kJ/mol/ps/atom)", "RMS fluct. (kJ/mol)",
-               "max abs(E-E0) (kJ/mol)", "wall s/ps", "command"], rows)])
+               "max abs(E-E0) (kJ/mol)", "fitted change over the run (kJ/mol)", "abs(change) / RMS fluct.",
+               "wall s/ps", "command"], rows)])
 
 
 def mdanalysis_section(md, long):
