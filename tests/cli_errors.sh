@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Bad input must give a clear error naming file and line, a non-zero exit, and no output
+# posing as a result. Usage: cli_errors.sh VIMD_BINARY SOURCE_DIR WORK_DIR
+set -uo pipefail
+vimd=$1 src=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+failures=0
+expect_error() {  # name, expected exit code, expected text, command...
+  local name=$1 code=$2 text=$3; shift 3
+  local out rc
+  out=$("$@" 2>&1); rc=$?
+  if [[ $rc -ne $code || "$out" != *"$text"* ]]; then
+    echo "FAIL $name: exit $rc (wanted $code), output: $out"; failures=$((failures + 1))
+  else
+    echo "ok   $name: $out" | head -1
+  fi
+}
+water="$src/inputs/water216"
+cat > "$work/typo.toml" <<TOML
+[system]
+structure = "$water/conf.gro"
+topology = "$water/topol.top"
+[integrator]
+type = "rattle"
+stpes = 10
+TOML
+expect_error "unknown key" 2 "typo.toml:6" "$vimd" check "$work/typo.toml"
+expect_error "suggestion" 2 "steps" "$vimd" check "$work/typo.toml"
+
+head -c 2000 "$water/conf.gro" > "$work/truncated.gro"
+sed -e "s|$water/conf.gro|$work/truncated.gro|" -e "s/stpes/steps/" "$work/typo.toml" > "$work/truncated.toml"
+expect_error "truncated gro" 2 "truncated.gro" "$vimd" run "$work/truncated.toml" --out "$work/out"
+[[ ! -e "$work/out/confout.gro" ]] || { echo "FAIL truncated gro left a confout.gro"; failures=$((failures + 1)); }
+
+sed -e "s/stpes = 10/steps = 10\ndt = 0.5/" "$work/typo.toml" > "$work/blowup.toml"
+printf '[forcefield]\nneighbor_skin = 0.03\n[output]\ndir = "%s"\n' "$work/blowup" >> "$work/blowup.toml"
+expect_error "divergent run" 3 "did not converge" "$vimd" run "$work/blowup.toml"
+[[ ! -e "$work/blowup/confout.gro" && ! -e "$work/blowup/energy.csv" ]] || {
+  echo "FAIL a failed run left complete-looking output"; failures=$((failures + 1)); }
+
+echo "$((5 - failures)) passed, $failures failed"
+[[ $failures -eq 0 ]]
