@@ -1,5 +1,7 @@
 #include "integrators/constrained_dynamics.hpp"
 
+#include "integrators/coords_ops.hpp"
+
 namespace vimd {
 
 ConstrainedDynamics::ConstrainedDynamics(Problem& problem) : problem_(problem) {
@@ -23,7 +25,7 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
     problem_.force_field.compute(q, point.forces);
   const Coords& f = point.forces.f;
   point.a.resize(3, n);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
   for (int i = 0; i < n; ++i) point.a.col(i) = w[i] * f.col(i);
 
   const Constraints& c = problem_.constraints;
@@ -32,7 +34,7 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
     c.apply_G(q, point.a, rhs_);
     const auto& list = c.list();
     const int d = c.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (d >= kParallelMinAtoms)
     for (int k = 0; k < d; ++k) rhs_[k] = -rhs_[k] - (v.col(list[k].i) - v.col(list[k].j)).squaredNorm();
     c.factorize(q, q, w, point.s_factor);
     point.lambda = rhs_;
@@ -47,7 +49,7 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
 void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar) {
   const int n = n_atoms();
   const Eigen::VectorXd& w = inverse_mass();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
   for (int i = 0; i < n; ++i) u_tangent_.col(i) = w[i] * a_bar.col(i);
 
   const Constraints& c = problem_.constraints;
@@ -59,7 +61,7 @@ void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_ba
     c.add_GT(point.q, coefficients_, u_tangent_, w);
   }
   problem_.force_field.hessian_vector(point.q, u_tangent_, hessian_u_);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
   for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
   if (!c.empty()) {
     c.add_H(point.lambda, u_tangent_, q_bar);

@@ -1,5 +1,7 @@
 #include "integrators/explicit_rk.hpp"
 
+#include "integrators/coords_ops.hpp"
+
 namespace vimd {
 
 ExplicitRungeKutta::ExplicitRungeKutta(ButcherTableau tableau) : tableau_(std::move(tableau)) {
@@ -23,7 +25,7 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
       continue;
     }
     // Y_k = y₀ + τ Σ_{j<k} a_kj K_j, with K_j = (v_j, A_j, L_j).
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) {
       Vec3 dq = Vec3::Zero(), dv = Vec3::Zero();
       for (int j = 0; j < k; ++j) {
@@ -38,7 +40,7 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
   }
   seg.q.resize(3, n);
   seg.v.resize(3, n);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
   for (int i = 0; i < n; ++i) {
     Vec3 dq = Vec3::Zero(), dv = Vec3::Zero();
     for (int k = 0; k < s; ++k) {
@@ -79,7 +81,7 @@ void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, 
     Coords& yv = stage_v_bar_[k];
     yq.resize(3, n);
     yv.resize(3, n);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) {
       Vec3 kq = b[k] * q_seed.col(i);
       Vec3 kv = v_seed ? Vec3(b[k] * v_seed->col(i)) : Vec3::Zero();
@@ -94,7 +96,7 @@ void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, 
       yv.col(i) = tau * kq + ks * mass[i] * stage.v.col(i);
     }
     if (v_reached) dynamics.add_vjp(stage, k_v_bar_, yq, yv);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) {
       q_bar.col(i) += yq.col(i);
       v_bar.col(i) += yv.col(i);

@@ -4,20 +4,9 @@
 #include <limits>
 
 #include "engine/errors.hpp"
+#include "integrators/coords_ops.hpp"
 
 namespace vimd {
-
-namespace {
-
-double max_abs(const Coords& u) {
-  const int n = static_cast<int>(u.cols());
-  double m = 0;
-#pragma omp parallel for schedule(static) reduction(max : m)
-  for (int i = 0; i < n; ++i) m = std::max(m, u.col(i).cwiseAbs().maxCoeff());
-  return m;
-}
-
-}  // namespace
 
 TangentProjector::TangentProjector(const Constraints& constraints, Eigen::VectorXd inverse_weights)
     : constraints_(constraints), inverse_weights_(std::move(inverse_weights)) {}
@@ -61,7 +50,10 @@ void Projection::project(const Coords& y, ProjectedPoint& out, long step) {
   const int n = static_cast<int>(y.cols());
   const Eigen::VectorXd& w = inverse_weights_;
   // Converged once the update is at the level where rounding in the positions dominates.
-  const double tolerance = 1e-13 * length_scale_ + 8 * std::numeric_limits<double>::epsilon() * max_abs(y);
+  const double size = max_abs(y);
+  if (!std::isfinite(size))
+    throw ConvergenceError("projection onto the constraints", step, 0, size, "non-finite positions");
+  const double tolerance = 1e-13 * length_scale_ + 8 * std::numeric_limits<double>::epsilon() * size;
   r1_.resize(3, n);
   dx_.resize(3, n);
   double change = std::numeric_limits<double>::infinity();
@@ -95,23 +87,24 @@ void Projection::pull_back(const ProjectedPoint& point, const Coords& p, Coords&
   const int n = static_cast<int>(p.cols());
   const Eigen::VectorXd& w = inverse_weights_;
   const Coords& x = point.x;
-  const double tolerance = 1e-14 * max_abs(p);
+  const double size = max_abs(p);
+  if (!std::isfinite(size))
+    throw ConvergenceError("covector pull-back through the projection", step, 0, size, "non-finite momenta");
+  const double tolerance = 1e-14 * size;
   b_.setZero(d);
   r1_.resize(3, n);
   scaled_.resize(3, n);
   for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
     // r1 = p − (I + Σθ_a H_a W⁻¹) p̂ − Gᵀb,  r2 = −G W⁻¹ p̂;
     // correction from [[I, Gᵀ], [G W⁻¹, 0]]: db = S⁻¹(G W⁻¹ r1 − r2), dp = r1 − Gᵀ db.
-#pragma omp parallel for schedule(static)
-    for (int i = 0; i < n; ++i) scaled_.col(i) = w[i] * p_hat.col(i);
+    for_each_atom(n, [&](int i) { scaled_.col(i) = w[i] * p_hat.col(i); });
     r1_ = p - p_hat;
     gr_ = -point.theta;
     constraints_.add_H(gr_, scaled_, r1_);
     gr_ = -b_;
     constraints_.add_GT(x, gr_, r1_);
     constraints_.apply_G(x, scaled_, g_);  // −r2
-#pragma omp parallel for schedule(static)
-    for (int i = 0; i < n; ++i) scaled_.col(i) = w[i] * r1_.col(i);
+    for_each_atom(n, [&](int i) { scaled_.col(i) = w[i] * r1_.col(i); });
     constraints_.apply_G(x, scaled_, db_);
     db_ += g_;
     point.s_factor.solve(db_);

@@ -1,8 +1,10 @@
 #include "integrators/registry.hpp"
 
 #include "engine/errors.hpp"
+#include "integrators/projected_rk.hpp"
 #include "integrators/rattle.hpp"
 #include "integrators/shake.hpp"
+#include "integrators/variational.hpp"
 #include "integrators/verlet.hpp"
 
 namespace vimd {
@@ -24,6 +26,8 @@ constexpr Entry kIntegrators[] = {
     {"verlet", build<VelocityVerlet>},
     {"shake", build<Shake>},
     {"rattle", build<Rattle>},
+    {"vi", build<VariationalIntegrator>},
+    {"rk", build<ProjectedRungeKutta>},
 };
 
 }  // namespace

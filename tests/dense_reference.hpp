@@ -465,7 +465,7 @@ class DenseVariational {
   // g(q), G(q)v, ∂⁻(w) − q̄, the momentum covector with p⁻ = p̄, G(∂⁺(w)) p⁺.
   template <class T>
   Vec<T> step_residual(const Vec<T>& z, const Vec<double>& qbar, const Vec<double>& pbar) const {
-    const int N = s_.dim(), d = s_.n_constraints();
+    const int N = s_.dim();
     Vec<T> q(z.begin(), z.begin() + N), v(z.begin() + N, z.begin() + 2 * N), pp(z.begin() + 2 * N, z.begin() + 3 * N),
         mu(z.begin() + 3 * N, z.end());
     Linearized<T> lin = linearize(q, v);
@@ -502,7 +502,6 @@ class DenseVariational {
       if (dz.cwiseAbs().maxCoeff() < tolerance) {
         q.assign(z.begin(), z.begin() + N);
         v.assign(z.begin() + N, z.begin() + 2 * N);
-        Vec<double> xm, pm, pp;
         // (q̄, p̄) ← (∂⁺(w), p⁺) with p⁺ from the solve (already tangent at ∂⁺(w)).
         Linearized<double> lin = linearize(q, v);
         qbar = lin.at.xp;

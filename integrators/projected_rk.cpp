@@ -1,0 +1,70 @@
+#include "integrators/projected_rk.hpp"
+
+#include "engine/errors.hpp"
+#include "integrators/constrained_dynamics.hpp"
+#include "integrators/explicit_rk.hpp"
+#include "integrators/projection.hpp"
+#include "integrators/verlet.hpp"
+
+namespace vimd {
+
+struct ProjectedRungeKutta::Work {
+  Problem* problem;
+  ConstrainedDynamics dynamics;
+  ExplicitRungeKutta rk;
+  Projection projection;
+  TangentProjector mass_q;
+  Segment segment;
+  ProjectedPoint projected;
+  Forces forces;  // at the current positions
+
+  Work(Problem& p, const ButcherTableau& tableau, const std::string& kind)
+      : problem(&p), dynamics(p), rk(tableau), projection(p.constraints, p.inverse_mass, kind),
+        mass_q(p.constraints, p.inverse_mass) {}
+
+  // Positions onto Q, velocities onto the tangent space there, forces at the new positions.
+  void settle(const Coords& q, const Coords& v, State& state, long step) {
+    projection.project(q, projected, step);
+    state.q = projected.x;
+    state.v = v;
+    mass_q.set_point(state.q);
+    mass_q.apply(state.v);
+    problem->force_field.compute(state.q, forces);
+    state.f = forces.f;
+    state.potential = forces.potential;
+    state.energy_terms = forces.terms;
+  }
+};
+
+ProjectedRungeKutta::ProjectedRungeKutta(ButcherTableau tableau, double dt, std::string projection)
+    : tableau_(std::move(tableau)), dt_(dt), projection_(std::move(projection)) {
+  if (projection_ != "euclidean" && projection_ != "mass")
+    throw InputError("[integrator]", 0, "projection must be \"euclidean\" or \"mass\", not \"" + projection_ + "\"");
+}
+
+ProjectedRungeKutta::ProjectedRungeKutta(const IntegratorConfig& config)
+    : ProjectedRungeKutta(resolve_tableau(config.method, config), config.dt, config.projection) {
+  check_step_config(config);
+}
+
+ProjectedRungeKutta::~ProjectedRungeKutta() = default;
+
+void ProjectedRungeKutta::init(Problem& problem, State& state) {
+  check_start(problem, state);
+  work_ = std::make_unique<Work>(problem, tableau_, projection_);
+  work_->settle(state.q, state.v, state, state.step);
+}
+
+StepReport ProjectedRungeKutta::step(Problem& problem, State& state) {
+  if (!work_ || work_->problem != &problem)
+    throw std::logic_error("ProjectedRungeKutta::step before init() for this problem");
+  Work& w = *work_;
+  w.rk.forward(w.dynamics, state.q, state.v, dt_, w.segment, &w.forces);
+  w.settle(w.segment.q, w.segment.v, state, state.step + 1);
+  StepReport report;
+  report.iterations = w.projected.iterations;
+  report.residual = problem.constraints.max_relative_deviation(state.q);
+  return report;
+}
+
+}  // namespace vimd

@@ -1,0 +1,370 @@
+#include "integrators/variational.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "engine/errors.hpp"
+#include "integrators/constrained_dynamics.hpp"
+#include "integrators/coords_ops.hpp"
+#include "integrators/explicit_rk.hpp"
+#include "integrators/projection.hpp"
+#include "integrators/verlet.hpp"
+
+namespace vimd {
+
+namespace {
+
+constexpr int kMaxAndersonDepth = 8;
+
+std::string format_tolerance(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
+}  // namespace
+
+VariationalSettings VariationalSettings::from_config(const IntegratorConfig& config, const std::string& file) {
+  check_step_config(config);
+  if (config.solver_tolerance && !(*config.solver_tolerance > 0))
+    throw InputError(file, 0, "solver_tolerance must be positive (nm/ps), got " + format_tolerance(*config.solver_tolerance));
+  VariationalSettings s;
+  s.plus = resolve_tableau(config.method, config, file);
+  s.minus = config.method_minus ? resolve_tableau(*config.method_minus, config, file) : s.plus;
+  s.dt = config.dt;
+  s.alpha_minus = config.bias[0];
+  s.alpha_plus = config.bias[1];
+  if (!(s.alpha_minus >= -1 && s.alpha_minus <= 0 && s.alpha_plus >= 0 && s.alpha_plus <= 1) ||
+      std::abs(s.alpha_plus - s.alpha_minus - 1) > 1e-12)
+    throw InputError(file, 0,
+                     "bias = [" + std::to_string(s.alpha_minus) + ", " + std::to_string(s.alpha_plus) +
+                         "] must satisfy -1 <= alpha_minus <= 0 <= alpha_plus <= 1 and alpha_plus - alpha_minus = 1");
+  if (config.projection != "euclidean" && config.projection != "mass")
+    throw InputError(file, 0, "projection must be \"euclidean\" or \"mass\", not \"" + config.projection + "\"");
+  s.projection = config.projection;
+  s.tolerance = config.solver_tolerance ? *config.solver_tolerance : default_solver_tolerance(s.plus, s.alpha_minus);
+  s.max_iterations = config.max_iterations;
+  if (config.acceleration == "anderson")
+    s.anderson_depth = 4;
+  else if (config.acceleration != "none")
+    throw InputError(file, 0, "acceleration must be \"none\" or \"anderson\", not \"" + config.acceleration + "\"");
+  return s;
+}
+
+double default_solver_tolerance(const ButcherTableau& plus, double alpha_minus) {
+  (void)plus;
+  (void)alpha_minus;
+  return 1e-8;
+}
+
+// Everything a run needs, built at init() for its Problem; sized once so steps do not allocate.
+struct VariationalIntegrator::Work {
+  Problem* problem;
+  ConstrainedDynamics dynamics;
+  ExplicitRungeKutta plus, minus;
+  Projection projection;
+  TangentProjector euclid_q, euclid_plus, euclid_minus, mass_q;
+  Segment seg_plus, seg_minus, seg_predict;
+  ProjectedPoint proj_plus, proj_minus, proj_q;
+  Coords q, v, p_plus;          // the unknowns
+  Coords qbar, pbar;            // the cotangent state
+  Coords p_offset;              // p̄ − M·V⁺ at the last accepted point
+  Coords rho_q, rho_v, minus_q, minus_v, p_hat;
+  Coords dq, dv, dp, trial, v_trial;
+  Eigen::VectorXd nu;
+  // Anderson history: per atom (q/h, v, M⁻¹p) and the fixed-point residual in the same scaling.
+  std::vector<Eigen::Matrix<double, 9, Eigen::Dynamic>> history_x, history_f;
+  int history_count = 0;
+
+  Work(Problem& p, const VariationalSettings& s)
+      : problem(&p),
+        dynamics(p),
+        plus(s.plus),
+        minus(s.minus),
+        projection(p.constraints, p.inverse_mass, s.projection),
+        euclid_q(p.constraints, Eigen::VectorXd::Ones(p.inverse_mass.size())),
+        euclid_plus(p.constraints, Eigen::VectorXd::Ones(p.inverse_mass.size())),
+        euclid_minus(p.constraints, Eigen::VectorXd::Ones(p.inverse_mass.size())),
+        mass_q(p.constraints, p.inverse_mass) {
+    const int n = static_cast<int>(p.inverse_mass.size());
+    for (Coords* c : {&q, &v, &p_plus, &qbar, &pbar, &p_offset, &rho_q, &rho_v, &minus_q, &minus_v, &p_hat, &dq, &dv,
+                      &dp, &trial, &v_trial})
+      c->setZero(3, n);
+    history_x.assign(s.anderson_depth > 0 ? s.anderson_depth + 1 : 0, Eigen::Matrix<double, 9, Eigen::Dynamic>(9, n));
+    history_f = history_x;
+  }
+};
+
+VariationalIntegrator::VariationalIntegrator(VariationalSettings settings) : settings_(std::move(settings)) {
+  if (settings_.anderson_depth < 0 || settings_.anderson_depth > kMaxAndersonDepth)
+    throw std::invalid_argument("Anderson depth must be between 0 and " + std::to_string(kMaxAndersonDepth));
+}
+VariationalIntegrator::VariationalIntegrator(const IntegratorConfig& config)
+    : VariationalIntegrator(VariationalSettings::from_config(config)) {}
+VariationalIntegrator::~VariationalIntegrator() = default;
+
+std::vector<std::string> VariationalIntegrator::diagnostic_names() const {
+  return {"vi_iterations", "vi_residual", "noether_px", "noether_py", "noether_pz"};
+}
+
+const Coords& VariationalIntegrator::qbar() const { return work_->qbar; }
+const Coords& VariationalIntegrator::pbar() const { return work_->pbar; }
+
+void VariationalIntegrator::set_cotangent(const Coords& qbar, const Coords& pbar) {
+  work_->qbar = qbar;
+  work_->pbar = pbar;
+}
+
+VariationalIntegrator::Work& VariationalIntegrator::work(Problem& problem, const char* caller) {
+  if (!work_ || work_->problem != &problem)
+    throw std::logic_error(std::string("VariationalIntegrator::") + caller + " before init() for this problem");
+  return *work_;
+}
+
+void VariationalIntegrator::forward_segments(Work& w, const Coords& q, const Coords& v, long step) {
+  const double h = settings_.dt;
+  w.plus.forward(w.dynamics, q, v, h * settings_.alpha_plus, w.seg_plus);
+  w.projection.project(w.seg_plus.q, w.proj_plus, step);
+  if (settings_.alpha_minus != 0) {
+    // Both segments start at w: the first stage's forces are shared.
+    w.minus.forward(w.dynamics, q, v, h * settings_.alpha_minus, w.seg_minus, &w.seg_plus.stages[0].forces);
+    w.projection.project(w.seg_minus.q, w.proj_minus, step);
+  }
+}
+
+// r = (−p̂⁺, 0, +1)·DΦ_{τ⁺} + (p̂⁻, 0, −1)·DΦ_{τ⁻}  (or + (p⁻, 0) when τ⁻ = 0), then
+// ν = (GGᵀ)⁻¹G r_v, ρ_v = r_v − Gᵀν, ρ_q = Π(r_q − Ġᵀν), all at q; into w.rho_q, w.rho_v.
+void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, const Coords& p_plus,
+                                     const Coords& p_minus, long step) {
+  const int n = static_cast<int>(q.cols());
+  w.projection.pull_back(w.proj_plus, p_plus, w.p_hat, step);
+  w.p_hat = -w.p_hat;
+  w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v);
+  if (settings_.alpha_minus != 0) {
+    w.projection.pull_back(w.proj_minus, p_minus, w.p_hat, step);
+    w.minus.vjp(w.dynamics, w.seg_minus, w.p_hat, nullptr, -1.0, w.minus_q, w.minus_v);
+    for_each_atom(n, [&](int i) {
+      w.rho_q.col(i) += w.minus_q.col(i);
+      w.rho_v.col(i) += w.minus_v.col(i);
+    });
+  } else {
+    w.rho_q += p_minus;
+  }
+  const Constraints& c = w.problem->constraints;
+  if (c.empty()) return;
+  w.euclid_q.set_point(q);
+  w.euclid_q.apply(w.rho_v, &w.nu);
+  w.nu = -w.nu;
+  c.add_H(w.nu, v, w.rho_q);
+  w.euclid_q.apply(w.rho_q);
+}
+
+void VariationalIntegrator::write_state(Work& w, State& state) const {
+  const Forces& forces = w.seg_plus.stages[0].forces;  // at exactly w.q
+  state.q = w.q;
+  state.v = w.v;
+  state.f = forces.f;
+  state.potential = forces.potential;
+  state.energy_terms = forces.terms;
+}
+
+void VariationalIntegrator::init(Problem& problem, State& state) {
+  check_start(problem, state);
+  const int n = static_cast<int>(problem.inverse_mass.size());
+  work_ = std::make_unique<Work>(problem, settings_);
+  Work& w = *work_;
+  const double h = settings_.dt, tau_minus = h * settings_.alpha_minus;
+  const Eigen::VectorXd& mass = problem.system.mass;
+  const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
+
+  // Start on TQ: positions onto the constraints, velocities M-orthogonally onto the tangent space.
+  w.projection.project(state.q, w.proj_q, state.step);
+  w.q = w.proj_q.x;
+  w.v = state.v;
+  w.mass_q.set_point(w.q);
+  w.mass_q.apply(w.v);
+  forward_segments(w, w.q, w.v, state.step);
+
+  // p⁺(w₀), p⁻(w₀) with w₀ fixed: the same residual, p̄ replaced by the unknown p⁻ (spec §6, init).
+  Coords& p_minus = w.trial;
+  for_each_atom(n, [&](int i) { w.p_plus.col(i) = mass[i] * w.v.col(i); });
+  p_minus = w.p_plus;
+  w.euclid_plus.set_point(w.proj_plus.x);
+  w.euclid_plus.apply(w.p_plus);
+  w.euclid_minus.set_point(settings_.alpha_minus != 0 ? w.proj_minus.x : w.q);
+  w.euclid_minus.apply(p_minus);
+  // Tighter than the step tolerance: an error here offsets the whole trajectory.
+  const double tolerance = std::max(1e-3 * settings_.tolerance, 1e-14);
+  double err = std::numeric_limits<double>::infinity();
+  int it = 0;
+  while (err > tolerance) {
+    if (it == std::max(settings_.max_iterations, 100))
+      throw ConvergenceError("vi initialisation (momenta at the start)", state.step, it, err);
+    ++it;
+    residual(w, w.q, w.v, w.p_plus, p_minus, state.step);
+    // δp⁺ = (ρ_v − τ⁻ρ_q)/h, δp⁻ = δp⁺ − ρ_q
+    for_each_atom(n, [&](int i) {
+      w.dp.col(i) = (w.rho_v.col(i) - tau_minus * w.rho_q.col(i)) / h;
+      w.dv.col(i) = w.dp.col(i) - w.rho_q.col(i);
+      w.p_plus.col(i) += w.dp.col(i);
+      p_minus.col(i) += w.dv.col(i);
+    });
+    auto per_mass = [&](int i) { return inverse_mass[i]; };
+    err = std::max(max_abs_scaled(w.dp, per_mass), max_abs_scaled(w.dv, per_mass));
+    w.euclid_plus.apply(w.p_plus);
+    w.euclid_minus.apply(p_minus);
+  }
+  w.qbar = w.proj_plus.x;
+  w.pbar = w.p_plus;
+  for_each_atom(n, [&](int i) { w.p_offset.col(i) = w.pbar.col(i) - mass[i] * w.seg_plus.v.col(i); });
+  write_state(w, state);
+}
+
+void VariationalIntegrator::predict(Work& w, const State& state, long step) {
+  const double h = settings_.dt;
+  if (settings_.alpha_minus == 0) {
+    // ∂⁻(w) = q, so q = q̄ exactly; the accepted ∂⁺ segment is the standard step Φ_h(w_k).
+    w.q = w.qbar;
+    w.v = w.seg_plus.v;
+  } else {
+    // The standard layer's own step Φ_h(w_k), its first stage shared with the accepted segments.
+    w.plus.forward(w.dynamics, state.q, state.v, h, w.seg_predict, &w.seg_plus.stages[0].forces);
+    w.projection.project(w.seg_predict.q, w.proj_q, step);
+    w.q = w.proj_q.x;
+    w.v = w.seg_predict.v;
+  }
+  w.mass_q.set_point(w.q);
+  w.mass_q.apply(w.v);
+}
+
+void VariationalIntegrator::update(Work& w, int iteration, long step) {
+  const int n = static_cast<int>(w.q.cols());
+  const double h = settings_.dt;
+  const Eigen::VectorXd& inverse_mass = w.problem->inverse_mass;
+  // The plain update: q ← P(q + δq), v ← M-orthogonal projection of v + δv at the new q, p⁺ ← p⁺ + δp.
+  auto settle = [&](Coords& q_trial, Coords& v_trial) {
+    w.projection.project(q_trial, w.proj_q, step);
+    q_trial = w.proj_q.x;
+    w.mass_q.set_point(q_trial);
+    w.mass_q.apply(v_trial);
+  };
+  w.trial = w.q + w.dq;
+  w.v_trial = w.v + w.dv;
+  settle(w.trial, w.v_trial);
+  const int depth = settings_.anderson_depth;
+  if (depth == 0) {
+    w.q = w.trial;
+    w.v = w.v_trial;
+    w.p_plus += w.dp;
+    return;
+  }
+  // Anderson mixing of the map T(x) = plain update of x, in x = (q/h, v, M⁻¹p) so the parts are
+  // comparable: with f = T(x) − x, x ← T(x) − Σ_j γ_j (Δx_j + Δf_j), γ = argmin ‖f − Σ_j γ_j Δf_j‖,
+  // where Δ·_j = ·_k − ·_{k−j} over the last `depth` iterates. Then back onto TQ.
+  const int slots = depth + 1;
+  const int k = (iteration - 1) % slots;
+  auto slot = [&](int j) { return ((k - j) % slots + slots) % slots; };
+  auto& xk = w.history_x[k];
+  auto& fk = w.history_f[k];
+  for_each_atom(n, [&](int i) {
+    xk.col(i) << w.q.col(i) / h, w.v.col(i), inverse_mass[i] * w.p_plus.col(i);
+    fk.col(i) << (w.trial.col(i) - w.q.col(i)) / h, w.v_trial.col(i) - w.v.col(i), inverse_mass[i] * w.dp.col(i);
+  });
+  const int m = std::min(iteration, slots) - 1;
+  Eigen::Matrix<double, kMaxAndersonDepth, 1> gamma = Eigen::Matrix<double, kMaxAndersonDepth, 1>::Zero();
+  if (m > 0) {
+    Eigen::Matrix<double, kMaxAndersonDepth, kMaxAndersonDepth> gram;
+    Eigen::Matrix<double, kMaxAndersonDepth, 1> rhs;
+    for (int a = 1; a <= m; ++a) {
+      const auto& fa = w.history_f[slot(a)];
+      for (int b = a; b <= m; ++b) {
+        const auto& fb = w.history_f[slot(b)];
+        double s = 0;
+#pragma omp parallel for schedule(static) reduction(+ : s) if (n >= kParallelMinAtoms)
+        for (int i = 0; i < n; ++i) s += (fk.col(i) - fa.col(i)).dot(fk.col(i) - fb.col(i));
+        gram(a - 1, b - 1) = gram(b - 1, a - 1) = s;
+      }
+      double s = 0;
+#pragma omp parallel for schedule(static) reduction(+ : s) if (n >= kParallelMinAtoms)
+      for (int i = 0; i < n; ++i) s += (fk.col(i) - fa.col(i)).dot(fk.col(i));
+      rhs(a - 1) = s;
+    }
+    // Regularised normal equations of a tiny least-squares problem (m ≤ kMaxAndersonDepth).
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxAndersonDepth, kMaxAndersonDepth> a =
+        gram.topLeftCorner(m, m);
+    a.diagonal().array() += 1e-10 * a.trace() + std::numeric_limits<double>::min();
+    gamma.head(m) = a.ldlt().solve(rhs.head(m));
+  }
+  for_each_atom(n, [&](int i) {
+    Eigen::Matrix<double, 9, 1> x = xk.col(i) + fk.col(i);
+    for (int j = 1; j <= m; ++j)
+      x -= gamma(j - 1) * (xk.col(i) - w.history_x[slot(j)].col(i) + fk.col(i) - w.history_f[slot(j)].col(i));
+    w.trial.col(i) = h * x.segment<3>(0);
+    w.v_trial.col(i) = x.segment<3>(3);
+    w.p_plus.col(i) = x.segment<3>(6) / inverse_mass[i];
+  });
+  settle(w.trial, w.v_trial);
+  w.q = w.trial;
+  w.v = w.v_trial;
+}
+
+StepReport VariationalIntegrator::step(Problem& problem, State& state) {
+  Work& w = work(problem, "step");
+  const int n = static_cast<int>(w.q.cols());
+  const long step = state.step + 1;
+  const double h = settings_.dt, tau_plus = h * settings_.alpha_plus, tau_minus = h * settings_.alpha_minus;
+  const Eigen::VectorXd& mass = problem.system.mass;
+  const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
+
+  predict(w, state, step);
+  // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.
+  const double round_off = 8 * std::numeric_limits<double>::epsilon() * (max_abs(state.q) / h + max_abs(state.v));
+  const double tolerance = std::max(settings_.tolerance, round_off);
+  double err = std::numeric_limits<double>::infinity();
+  int it = 0;
+  for (;;) {
+    ++it;
+    forward_segments(w, w.q, w.v, step);
+    if (it == 1) {
+      for_each_atom(n, [&](int i) {
+        w.p_plus.col(i) = mass[i] * w.seg_plus.v.col(i);
+        if (settings_.momentum_offset) w.p_plus.col(i) += w.p_offset.col(i);
+      });
+    }
+    w.euclid_plus.set_point(w.proj_plus.x);
+    w.euclid_plus.apply(w.p_plus);
+    residual(w, w.q, w.v, w.p_plus, w.pbar, step);
+    const Coords& x_minus = settings_.alpha_minus != 0 ? w.proj_minus.x : w.q;
+    // δp = ρ_q,  δv = M⁻¹(τ⁺ρ_q − ρ_v)/h,  δq = −(∂⁻(w) − q̄) − τ⁻δv
+    for_each_atom(n, [&](int i) {
+      w.dp.col(i) = w.rho_q.col(i);
+      w.dv.col(i) = inverse_mass[i] * (tau_plus * w.rho_q.col(i) - w.rho_v.col(i)) / h;
+      w.dq.col(i) = w.qbar.col(i) - x_minus.col(i) - tau_minus * w.dv.col(i);
+    });
+    err = std::max(max_abs(w.dv), max_abs(w.dq) / h);
+    if (!std::isfinite(err))
+      throw ConvergenceError("vi", step, it, err, "the residual is not finite (the step is unstable; reduce dt)");
+    if (err <= tolerance) break;
+    if (it >= settings_.max_iterations)
+      throw ConvergenceError("vi", step, it, err,
+                             "raise max_iterations or solver_tolerance, or reduce dt (tolerance " +
+                                 format_tolerance(tolerance) + " nm/ps)");
+    update(w, it, step);
+  }
+
+  // Accept the evaluated point w: (q̄, p̄) ← (∂⁺(w), tangential part of p⁺ + δp at ∂⁺(w)).
+  w.qbar = w.proj_plus.x;
+  w.pbar = w.p_plus + w.dp;
+  w.euclid_plus.apply(w.pbar);
+  for_each_atom(n, [&](int i) { w.p_offset.col(i) = w.pbar.col(i) - mass[i] * w.seg_plus.v.col(i); });
+  write_state(w, state);
+
+  StepReport report;
+  report.iterations = it;
+  report.residual = err;
+  const Vec3 momentum = w.pbar.rowwise().sum();
+  report.diagnostics = {static_cast<double>(it), err, momentum.x(), momentum.y(), momentum.z()};
+  return report;
+}
+
+}  // namespace vimd

@@ -1,0 +1,465 @@
+// The variational integrator ("vi") on systems of a few atoms: equal to the dense Newton/dual-number
+// reference, equal to the Python reference trajectory, its global order, exact discrete Noether
+// momentum, symplecticity of (q̄, p̄) ↦ (q̄′, p̄′), constraints, failures; and the projected RK baseline.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "dense_reference.hpp"
+#include "engine/errors.hpp"
+#include "integrators/constrained_dynamics.hpp"
+#include "integrators/explicit_rk.hpp"
+#include "integrators/projected_rk.hpp"
+#include "integrators/registry.hpp"
+#include "integrators/variational.hpp"
+
+namespace vimd {
+namespace {
+
+using dense::Vec;
+
+VariationalSettings make_settings(const std::string& plus, const std::string& minus, double h, double am, double ap,
+                                  const std::string& projection = "euclidean", double tolerance = 1e-13) {
+  VariationalSettings s;
+  s.plus = builtin_tableau(plus);
+  s.minus = builtin_tableau(minus);
+  s.dt = h;
+  s.alpha_minus = am;
+  s.alpha_plus = ap;
+  s.projection = projection;
+  s.tolerance = tolerance;
+  s.max_iterations = 100;
+  return s;
+}
+
+// A dense test system run by the engine's integrator.
+struct ViRun {
+  dense::DenseSystem system;
+  Vec<double> q0, v0;
+  std::unique_ptr<dense::EngineProblem> engine;
+  std::unique_ptr<VariationalIntegrator> vi;
+  State state;
+
+  ViRun(const std::string& which, const VariationalSettings& settings) {
+    if (which == "two_dimers")
+      system = dense::two_dimers(q0, v0);
+    else if (which == "triangle_and_atom")
+      system = dense::triangle_and_atom(q0, v0);
+    else
+      system = dense::free_trimer(q0, v0);
+    engine = std::make_unique<dense::EngineProblem>(system);
+    vi = std::make_unique<VariationalIntegrator>(settings);
+    state.q = dense::to_coords(q0);
+    state.v = dense::to_coords(v0);
+    vi->init(engine->problem, state);
+  }
+  StepReport step() {
+    StepReport r = vi->step(engine->problem, state);
+    ++state.step;
+    return r;
+  }
+};
+
+double max_diff(const Coords& a, const Vec<double>& b) {
+  double m = 0;
+  for (int i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a.data()[i] - b[i]));
+  return m;
+}
+
+// ---------------------------------------------------------------- fast solver = dense solver
+struct DenseCase {
+  std::string system, plus, minus;
+  double am, ap, h;
+  std::string projection;
+};
+
+class FastVersusDense : public ::testing::TestWithParam<DenseCase> {};
+
+TEST_P(FastVersusDense, SameTrajectoryAndMomenta) {
+  const DenseCase& c = GetParam();
+  ViRun run(c.system, make_settings(c.plus, c.minus, c.h, c.am, c.ap, c.projection));
+  dense::DenseVariational ref(run.system, builtin_tableau(c.minus), builtin_tableau(c.plus), c.h, c.am, c.ap,
+                              c.projection == "mass");
+  // Start the dense solver from the engine's (projected) start point.
+  Vec<double> q = dense::to_vec(run.state.q), v = dense::to_vec(run.state.v), xm, qbar, pm, pbar;
+  ref.momenta(q, v, xm, qbar, pm, pbar);
+  EXPECT_LT(max_diff(run.vi->qbar(), qbar), 1e-12);
+  EXPECT_LT(max_diff(run.vi->pbar(), pbar), 1e-10) << "initial momentum p+(w0)";
+  for (int k = 1; k <= 3; ++k) {
+    Vec<double> qg, vg;
+    ref.predict(q, v, qg, vg);
+    Vec<double> pg(vg.size());
+    for (std::size_t i = 0; i < vg.size(); ++i) pg[i] = run.system.mass[i / 3] * vg[i];
+    if (c.am == 0) qg = qbar;
+    q = qg;
+    v = vg;
+    ref.step(q, v, qbar, pbar, pg);
+    run.step();
+    SCOPED_TRACE("step " + std::to_string(k));
+    EXPECT_LT(max_diff(run.state.q, q), 1e-10);
+    EXPECT_LT(max_diff(run.state.v, v), 1e-10);
+    EXPECT_LT(max_diff(run.vi->qbar(), qbar), 1e-10);
+    EXPECT_LT(max_diff(run.vi->pbar(), pbar), 1e-10);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, FastVersusDense,
+    ::testing::Values(DenseCase{"two_dimers", "rk4", "rk4", 0.0, 1.0, 0.05, "euclidean"},
+                      DenseCase{"two_dimers", "rk4", "rk4", -0.5, 0.5, 0.05, "euclidean"},
+                      DenseCase{"two_dimers", "heun2", "rk3", -0.3, 0.7, 0.05, "mass"},
+                      DenseCase{"triangle_and_atom", "rk4", "rk4", 0.0, 1.0, 0.02, "euclidean"},
+                      DenseCase{"triangle_and_atom", "rk3", "heun2", -0.5, 0.5, 0.02, "mass"}),
+    [](const auto& info) {
+      const DenseCase& c = info.param;
+      std::string bias = c.am == 0 ? "01" : c.am == -0.5 ? "sym" : "skew";
+      return c.system + "_" + c.plus + "_" + c.minus + "_" + bias + "_" + c.projection;
+    });
+
+// ---------------------------------------------------------------- the Python reference trajectory
+struct ReferenceCase {
+  std::string plus, minus;
+  double am = 0, ap = 1, h = 0;
+  int steps = 0;
+  std::vector<Vec<double>> rows;  // per step: q, v, q̄, p̄ (12 each)
+};
+
+std::vector<ReferenceCase> read_reference(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::vector<ReferenceCase> cases;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    if (line.rfind("case", 0) == 0) {
+      ReferenceCase c;
+      std::string word;
+      ls >> word >> c.plus >> c.minus >> c.am >> c.ap >> c.h >> c.steps;
+      cases.push_back(c);
+      continue;
+    }
+    int k;
+    ls >> k;
+    Vec<double> row(48);
+    for (double& x : row) ls >> x;
+    if (!ls || cases.empty() || k != static_cast<int>(cases.back().rows.size()))
+      throw std::runtime_error("malformed line in " + path + ": " + line.substr(0, 40));
+    cases.back().rows.push_back(row);
+  }
+  return cases;
+}
+
+TEST(PythonReference, TwoDimersTrajectoryReproduced) {
+  // tests/data/vi/two_dimers_reference.txt: written by make_two_dimers_reference.py in the same folder.
+  auto cases = read_reference(std::string(VIMD_SOURCE_DIR) + "/tests/data/vi/two_dimers_reference.txt");
+  ASSERT_EQ(cases.size(), 3u);
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.plus + "/" + c.minus + " bias [" + std::to_string(c.am) + ", " + std::to_string(c.ap) + "]");
+    ASSERT_EQ(static_cast<int>(c.rows.size()), c.steps + 1);
+    ViRun run("two_dimers", make_settings(c.plus, c.minus, c.h, c.am, c.ap));
+    auto part = [&](int k, int which) { return Vec<double>(c.rows[k].begin() + 12 * which, c.rows[k].begin() + 12 * which + 12); };
+    double worst = 0;
+    for (int k = 0; k <= c.steps; ++k) {
+      if (k > 0) run.step();
+      worst = std::max({worst, max_diff(run.state.q, part(k, 0)), max_diff(run.state.v, part(k, 1)),
+                        max_diff(run.vi->qbar(), part(k, 2)), max_diff(run.vi->pbar(), part(k, 3))});
+    }
+    EXPECT_LT(worst, 1e-9);
+    RecordProperty("max_deviation_" + c.plus + "_" + c.minus, std::to_string(worst));
+    std::printf("  %s/%s bias [%g, %g]: max deviation from the Python reference over %d steps %.2e\n", c.plus.c_str(),
+                c.minus.c_str(), c.am, c.ap, c.steps, worst);
+  }
+}
+
+// ---------------------------------------------------------------- global order
+// The exact flow of the index-1 ODE by the rk6 standard layer with a tiny step.
+Vec<double> exact_flow(dense::EngineProblem& engine, const Coords& q0, const Coords& v0, double T, int steps) {
+  ConstrainedDynamics dyn(engine.problem);
+  ExplicitRungeKutta rk(builtin_tableau("rk6"));
+  Segment seg;
+  Coords q = q0, v = v0;
+  for (int k = 0; k < steps; ++k) {
+    rk.forward(dyn, q, v, T / steps, seg);
+    q = seg.q;
+    v = seg.v;
+  }
+  Vec<double> w = dense::to_vec(q);
+  for (double x : dense::to_vec(v)) w.push_back(x);
+  return w;
+}
+
+struct OrderCase {
+  std::string method;
+  double am, ap;
+  int nominal;  // the method's order; with bias [-1/2, 1/2] the integrator is symmetric, so even
+  int steps;    // coarse resolution; the rate is measured between steps and 2·steps over T = 1
+};
+
+class GlobalOrder : public ::testing::TestWithParam<OrderCase> {};
+
+TEST_P(GlobalOrder, MatchesNominalOrder) {
+  const OrderCase& c = GetParam();
+  const double T = 1.0;
+  double err[2];
+  for (int r = 0; r < 2; ++r) {
+    const int n = c.steps << r;
+    ViRun run("two_dimers", make_settings(c.method, c.method, T / n, c.am, c.ap));
+    Vec<double> exact = exact_flow(*run.engine, run.state.q, run.state.v, T, 4000);
+    for (int k = 0; k < n; ++k) run.step();
+    Vec<double> w = dense::to_vec(run.state.q);
+    for (double x : dense::to_vec(run.state.v)) w.push_back(x);
+    err[r] = 0;
+    for (std::size_t i = 0; i < w.size(); ++i) err[r] = std::max(err[r], std::abs(w[i] - exact[i]));
+  }
+  const double rate = std::log2(err[0] / err[1]);
+  std::printf("  %s bias [%g, %g]: errors %.3e (h = 1/%d), %.3e (h = 1/%d), order %.2f (nominal %d)\n",
+              c.method.c_str(), c.am, c.ap, err[0], c.steps, err[1], 2 * c.steps, rate, c.nominal);
+  EXPECT_NEAR(rate, c.nominal, 0.3);
+  EXPECT_GT(err[1], 1e-11) << "too close to round-off to measure an order";
+}
+
+// Resolutions in the asymptotic range on this system (rk3 with bias [0, 1] has a large
+// fourth-order term at coarse steps: rates 3.7-3.9 down to h = 1/256, 2.9-3.2 from 1/512).
+INSTANTIATE_TEST_SUITE_P(Methods, GlobalOrder,
+                         ::testing::Values(OrderCase{"euler", 0, 1, 1, 256}, OrderCase{"euler", -0.5, 0.5, 2, 256},
+                                           OrderCase{"heun2", 0, 1, 2, 128}, OrderCase{"heun2", -0.5, 0.5, 2, 128},
+                                           OrderCase{"rk3", 0, 1, 3, 512}, OrderCase{"rk3", -0.5, 0.5, 4, 128},
+                                           OrderCase{"rk4", 0, 1, 4, 128}, OrderCase{"rk4", -0.5, 0.5, 4, 128},
+                                           OrderCase{"rk6", 0, 1, 6, 64}, OrderCase{"rk6", -0.5, 0.5, 6, 64}),
+                         [](const auto& info) {
+                           return info.param.method + (info.param.am == 0 ? "_bias_0_1" : "_bias_symmetric");
+                         });
+
+// ---------------------------------------------------------------- geometry
+Vec3 total(const Coords& p) { return p.rowwise().sum(); }
+
+TEST(Noether, LinearMomentumConservedOver1000Steps) {
+  // Exact by construction (the translation part of the residual is Σp̄ − Σp⁺ and is removed
+  // every iteration), so it holds at a loose solver tolerance too.
+  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+    for (double tolerance : {1e-6, 1e-12}) {
+      ViRun run("two_dimers", make_settings("rk4", "rk4", 0.025, am, ap, "euclidean", tolerance));
+      const Vec3 p0 = total(run.vi->pbar());
+      const double scale = run.vi->pbar().cwiseAbs().sum();
+      double worst = 0;
+      for (int k = 0; k < 1000; ++k) {
+        StepReport r = run.step();
+        worst = std::max(worst, (total(run.vi->pbar()) - p0).cwiseAbs().maxCoeff());
+        ASSERT_EQ(r.diagnostics.size(), run.vi->diagnostic_names().size());
+        EXPECT_EQ(r.diagnostics[0], r.iterations);
+        EXPECT_EQ(r.diagnostics[1], r.residual);
+        EXPECT_EQ(r.diagnostics[2], total(run.vi->pbar()).x());
+      }
+      std::printf("  bias [%g, %g], tolerance %g: max |Σp̄ − Σp̄₀| = %.2e (Σ|p̄_i| = %.2f) over 1000 steps\n", am, ap,
+                  tolerance, worst, scale);
+      EXPECT_LT(worst, 1e-10 * scale);
+    }
+  }
+}
+
+TEST(Symplecticity, CotangentMapPreservesOmega) {
+  // (q̄, p̄) ↦ (q̄′, p̄′) on the unconstrained LJ trimer, Jacobian by central differences.
+  for (auto [method, am, ap] : {std::tuple{"rk4", 0.0, 1.0}, std::tuple{"heun2", -0.5, 0.5}}) {
+    auto settings = make_settings(method, method, 0.05, am, ap, "euclidean", 1e-14);
+    ViRun base("free_trimer", settings);
+    const int n2 = 18;
+    Vec<double> z0 = dense::to_vec(base.vi->qbar());
+    for (double x : dense::to_vec(base.vi->pbar())) z0.push_back(x);
+    auto map = [&](const Vec<double>& z) {
+      ViRun run("free_trimer", settings);
+      run.vi->set_cotangent(dense::to_coords(Vec<double>(z.begin(), z.begin() + 9)),
+                            dense::to_coords(Vec<double>(z.begin() + 9, z.end())));
+      run.step();
+      Vec<double> out = dense::to_vec(run.vi->qbar());
+      for (double x : dense::to_vec(run.vi->pbar())) out.push_back(x);
+      return out;
+    };
+    // The plain standard layer on (q, p = Mv) as a control: not symplectic.
+    dense::DenseSystem sys;
+    Vec<double> q0, v0;
+    sys = dense::free_trimer(q0, v0);
+    auto plain = [&](const Vec<double>& z) {
+      Vec<double> q(z.begin(), z.begin() + 9), v(9);
+      for (int i = 0; i < 9; ++i) v[i] = z[9 + i] / sys.mass[i / 3];
+      dense::FlowResult<double> f = dense::rk_flow(sys, builtin_tableau(method), 0.05, q, v);
+      Vec<double> out = f.q;
+      for (int i = 0; i < 9; ++i) out.push_back(sys.mass[i / 3] * f.v[i]);
+      return out;
+    };
+    auto defect = [&](auto&& F) {
+      Eigen::MatrixXd J(n2, n2);
+      const double e = 1e-5;
+      for (int j = 0; j < n2; ++j) {
+        Vec<double> zp = z0, zm = z0;
+        zp[j] += e;
+        zm[j] -= e;
+        Vec<double> fp = F(zp), fm = F(zm);
+        for (int i = 0; i < n2; ++i) J(i, j) = (fp[i] - fm[i]) / (2 * e);
+      }
+      Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(n2, n2);
+      omega.topRightCorner(9, 9) = Eigen::MatrixXd::Identity(9, 9);
+      omega.bottomLeftCorner(9, 9) = -Eigen::MatrixXd::Identity(9, 9);
+      return (J.transpose() * omega * J - omega).cwiseAbs().maxCoeff();
+    };
+    const double vi_defect = defect(map), plain_defect = defect(plain);
+    std::printf("  %s bias [%g, %g]: |JᵀΩJ − Ω| = %.1e (plain %s: %.1e)\n", method, am, ap, vi_defect, method,
+                plain_defect);
+    EXPECT_LT(vi_defect, 1e-8);
+    EXPECT_GT(plain_defect, 1e3 * vi_defect) << "the control should not be symplectic";
+  }
+}
+
+TEST(Constraints, HeldToRoundOffAtEveryStep) {
+  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+    for (std::string projection : {"euclidean", "mass"}) {
+      ViRun run("triangle_and_atom", make_settings("rk4", "rk4", 0.02, am, ap, projection, 1e-8));
+      double worst_q = 0, worst_v = 0, worst_bar = 0;
+      for (int k = 0; k < 200; ++k) {
+        run.step();
+        worst_q = std::max(worst_q, run.engine->constraints.max_relative_deviation(run.state.q));
+        worst_v = std::max(worst_v, run.engine->constraints.max_velocity_residual(run.state.q, run.state.v));
+        worst_bar = std::max(worst_bar, run.engine->constraints.max_relative_deviation(run.vi->qbar()));
+      }
+      EXPECT_LT(worst_q, 1e-13);
+      EXPECT_LT(worst_v, 1e-13);
+      EXPECT_LT(worst_bar, 1e-13);
+    }
+  }
+}
+
+// ---------------------------------------------------------------- failures
+TEST(Failure, NonConvergenceRaisesWithStepIterationsResidual) {
+  auto settings = make_settings("rk4", "rk4", 0.05, -0.5, 0.5, "euclidean", 1e-14);
+  settings.max_iterations = 2;
+  ViRun run("two_dimers", settings);
+  const Coords q = run.state.q, v = run.state.v;
+  try {
+    run.step();
+    FAIL() << "expected ConvergenceError";
+  } catch (const ConvergenceError& e) {
+    EXPECT_EQ(e.step(), 1);
+    EXPECT_EQ(e.iterations(), 2);
+    EXPECT_GT(e.residual(), 1e-14);
+    EXPECT_TRUE(std::isfinite(e.residual()));
+    EXPECT_NE(std::string(e.what()).find("max_iterations"), std::string::npos);
+  }
+  EXPECT_EQ(run.state.q, q) << "a failed step leaves the state alone";
+  EXPECT_EQ(run.state.v, v);
+}
+
+TEST(Failure, BlowUpRaisesAndNeverWritesNaN) {
+  // A step far beyond stability: the atoms are thrown into each other.
+  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+    ViRun run("two_dimers", make_settings("rk4", "rk4", 0.05, am, ap, "euclidean", 1e-10));
+    // Restart with a huge step from a good state: init (which integrates the segments) or the
+    // first steps must fail with ConvergenceError, leaving the state finite.
+    VariationalIntegrator big(make_settings("rk4", "rk4", 4.0, am, ap, "euclidean", 1e-10));
+    bool failed = false;
+    try {
+      big.init(run.engine->problem, run.state);
+      for (int k = 0; k < 20; ++k) big.step(run.engine->problem, run.state);
+    } catch (const ConvergenceError& e) {
+      failed = true;
+      EXPECT_TRUE(std::isfinite(e.residual()) || std::isinf(e.residual()));
+    }
+    EXPECT_TRUE(failed);
+    EXPECT_TRUE(run.state.q.allFinite());
+    EXPECT_TRUE(run.state.v.allFinite());
+  }
+}
+
+TEST(Settings, BadBiasAndUnknownMethodsAreInputErrors) {
+  IntegratorConfig config;
+  config.type = "vi";
+  config.bias = {-0.5, 0.6};
+  EXPECT_THROW(VariationalSettings::from_config(config), InputError);
+  config.bias = {0.2, 1.2};
+  EXPECT_THROW(VariationalSettings::from_config(config), InputError);
+  config.bias = {0, 1};
+  config.method = "rk5";
+  EXPECT_THROW(VariationalSettings::from_config(config), InputError);
+  config.method = "rk4";
+  config.method_minus = "heun2";
+  config.acceleration = "anderson";
+  VariationalSettings s = VariationalSettings::from_config(config);
+  EXPECT_EQ(s.minus.name, "heun2");
+  EXPECT_EQ(s.anderson_depth, 4);
+  EXPECT_GT(s.tolerance, 0);
+}
+
+// ---------------------------------------------------------------- Anderson acceleration
+TEST(Anderson, SameSolutionAsPlainIteration) {
+  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+    auto settings = make_settings("rk4", "rk4", 0.05, am, ap, "euclidean", 1e-12);
+    ViRun plain("two_dimers", settings);
+    settings.anderson_depth = 4;
+    ViRun anderson("two_dimers", settings);
+    long iterations[2] = {0, 0};
+    for (int k = 0; k < 50; ++k) {
+      iterations[0] += plain.step().iterations;
+      iterations[1] += anderson.step().iterations;
+    }
+    std::printf("  bias [%g, %g], h = 0.05: iterations per step %.2f plain, %.2f Anderson(4)\n", am, ap,
+                iterations[0] / 50.0, iterations[1] / 50.0);
+    EXPECT_LT((plain.state.q - anderson.state.q).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((plain.vi->pbar() - anderson.vi->pbar()).cwiseAbs().maxCoeff(), 1e-9);
+  }
+}
+
+// ---------------------------------------------------------------- the projected RK baseline ("rk")
+TEST(ProjectedRungeKutta, OrderOfTheMethodAndConstraintsKept) {
+  const double T = 1.0;
+  double err[2];
+  for (int r = 0; r < 2; ++r) {
+    const int n = 256 << r;
+    Vec<double> q0, v0;
+    dense::DenseSystem sys = dense::two_dimers(q0, v0);
+    dense::EngineProblem engine(sys);
+    State state;
+    state.q = dense::to_coords(q0);
+    state.v = dense::to_coords(v0);
+    ProjectedRungeKutta rk(builtin_tableau("rk4"), T / n, "euclidean");
+    rk.init(engine.problem, state);
+    Vec<double> exact = exact_flow(engine, state.q, state.v, T, 4000);
+    for (int k = 0; k < n; ++k) {
+      StepReport report = rk.step(engine.problem, state);
+      EXPECT_LT(report.residual, 1e-13);
+      EXPECT_LT(engine.constraints.max_velocity_residual(state.q, state.v), 1e-13);
+    }
+    Vec<double> w = dense::to_vec(state.q);
+    for (double x : dense::to_vec(state.v)) w.push_back(x);
+    err[r] = 0;
+    for (std::size_t i = 0; i < w.size(); ++i) err[r] = std::max(err[r], std::abs(w[i] - exact[i]));
+  }
+  std::printf("  projected rk4: errors %.3e, %.3e, order %.2f\n", err[0], err[1], std::log2(err[0] / err[1]));
+  // At least the method's order: the projection does not degrade it (4.4 measured here, the
+  // leading fourth-order term being small on this system).
+  EXPECT_GT(std::log2(err[0] / err[1]), 3.7);
+}
+
+TEST(Registry, BuildsViAndRk) {
+  IntegratorConfig config;
+  config.dt = 0.002;
+  for (std::string type : {"vi", "rk"}) {
+    config.type = type;
+    EXPECT_EQ(make_integrator(config)->name(), type);
+  }
+  config.type = "vi";
+  config.method = "user";
+  EXPECT_THROW(make_integrator(config), InputError) << "user method without a tableau";
+  config.tableau = TableauConfig{{{0, 0}, {1, 0}}, {0.5, 0.5}, {0, 1}, 3, 12};
+  try {
+    make_integrator(config);
+    FAIL() << "heun's tableau claiming order 3 must be refused";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("order-3 condition"), std::string::npos) << e.what();
+  }
+  config.tableau->order = 2;
+  EXPECT_EQ(make_integrator(config)->name(), "vi");
+}
+
+}  // namespace
+}  // namespace vimd
