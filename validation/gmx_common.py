@@ -10,8 +10,10 @@ VIMD = ROOT / "build" / "vimd"
 
 
 def run(cmd, cwd, stdin=None):
-    """Run a command, raising with its output when it fails."""
-    p = subprocess.run(cmd, cwd=cwd, input=stdin, text=True, capture_output=True)
+    """Run a command, raising with its output when it fails. OMP_NUM_THREADS is dropped: mdrun
+    refuses it when it disagrees with -nt."""
+    env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
+    p = subprocess.run(cmd, cwd=cwd, input=stdin, text=True, capture_output=True, env=env)
     if p.returncode != 0:
         raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
     return p.stdout
