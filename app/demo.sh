@@ -5,7 +5,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$root/app/setup.sh"
 vimd="$root/build/vimd"
-config="$root/inputs/water900/run.toml"
+config="$root/inputs/water900/run_smooth.toml"
 out="$root/out/demo"
 steps=${DEMO_STEPS:-1000}
 
