@@ -631,8 +631,9 @@ void measure(const Layout& L, const typename Layout::Cluster& cl, const Coords& 
 }  // namespace
 
 int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance, long step,
-                                 int max_iterations, Eigen::VectorXd* lambda_out) const {
+                                 int max_iterations, Eigen::VectorXd* lambda_out, double* max_deviation_out) const {
   if (lambda_out) lambda_out->setZero(size());
+  if (max_deviation_out) *max_deviation_out = 0;
   if (empty()) return 0;
   if (!(tolerance > 0)) throw std::invalid_argument("constraint tolerance must be positive");
   const Layout& L = *layout_;
@@ -725,6 +726,7 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
   }
   if (lambda_out)
     for (int p = 0; p < size(); ++p) (*lambda_out)[L.original[p]] = ws.lambda[p];
+  if (max_deviation_out) *max_deviation_out = *std::max_element(ws.deviation.begin(), ws.deviation.end());
   return iterations;
 }
 

@@ -69,9 +69,11 @@ class Constraints {
   // and dense clusters; chains start from a factorisation of the symmetric S(q_ref)). Returns the
   // iterations taken (maximum over clusters); throws ConvergenceError(step, iterations, worst
   // relative deviation, worst constraint with its 1-based atoms) when it cannot. lambda_out
-  // (optional) receives the accumulated multipliers. An empty w means all ones.
+  // (optional) receives the accumulated multipliers, max_deviation_out (optional) the final
+  // maximum relative deviation (saves a max_relative_deviation pass). An empty w means all ones.
   int solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& w, double tolerance, long step,
-                      int max_iterations = 500, Eigen::VectorXd* lambda_out = nullptr) const;
+                      int max_iterations = 500, Eigen::VectorXd* lambda_out = nullptr,
+                      double* max_deviation_out = nullptr) const;
   // v ← v − diag(w) Gᵀ S⁻¹ G v at q: the W-orthogonal projection onto the tangent space
   // (the RATTLE velocity stage when w = M⁻¹). mu_out (optional) receives the multipliers.
   void project_velocities(const Coords& q, Coords& v, const Eigen::VectorXd& w,

@@ -26,7 +26,6 @@ class Rattle : public Integrator {
   int max_iterations_;
   Forces forces_;
   Coords q_start_;
-  Eigen::VectorXd lambda_;
 };
 
 }  // namespace vimd

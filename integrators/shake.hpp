@@ -33,7 +33,6 @@ class Shake : public Integrator {
     bool valid = false;
     int iterations = 0;
     double residual = 0;
-    Eigen::VectorXd lambda;
   };
   bool half_step_matches(const State& state) const;
   void compute_half_step(const Problem& problem, const State& state, bool keep_key) const;

@@ -213,8 +213,10 @@ TEST(Constraints, SolvePositionsReachesToleranceAlongGrefT) {
     const Coords start = z.q + random_coords(z.system.n_atoms(), scale, rng);
     Coords q = start;
     Eigen::VectorXd lambda;
-    const int iterations = z.constraints.solve_positions(z.q, q, z.inverse_mass, 1e-10, 0, 500, &lambda);
+    double reported = -1;
+    const int iterations = z.constraints.solve_positions(z.q, q, z.inverse_mass, 1e-10, 0, 500, &lambda, &reported);
     EXPECT_LE(z.constraints.max_relative_deviation(q), 1e-10);
+    EXPECT_NEAR(reported, z.constraints.max_relative_deviation(q), 1e-14);
     EXPECT_GT(iterations, 0);
     EXPECT_LE(iterations, 20) << "scale " << scale;
     // q moved exactly along M⁻¹ G(q_ref)ᵀ λ.
