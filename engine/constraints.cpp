@@ -37,6 +37,14 @@ enum class Kind { Small, Dense, Sparse };
 // error is a few ulp of d, i.e. 1e-16, far below any usable tolerance.
 inline double relative_deviation(double r2, double d) { return std::abs(std::sqrt(r2) - d) / d; }
 
+// r² inside [(d(1 − tol))², (d(1 + tol))²] ⇔ relative deviation ≤ tol (up to rounding): the
+// iterations test this, without a square root or division, and compute the exact deviation only
+// once every bond of a cluster passes it.
+inline bool within(double r2, double d, double tolerance) {
+  const double lo = d * (1 - tolerance), hi = d * (1 + tolerance);
+  return r2 >= lo * lo && r2 <= hi * hi;
+}
+
 // max over k of f(k); NaN if any f(k) is NaN (so a blown-up state is never reported as fine).
 template <class F>
 double parallel_max(int n, F f) {
@@ -132,31 +140,47 @@ struct Constraints::Layout {
     Vec3 r_ref[kSmallMax], r[kSmallMax], image[kSmallMax];
     Eigen::Matrix3d coef;
     for (int a = 0; a < m; ++a) {
-      r_ref[a] = bond(q_ref, b + a);
-      // The periodic image of each bond is fixed for the whole solve (corrections are far below
-      // half a box), so the minimum image is taken once: r = q_i − q_j + image.
-      const Vec3 raw = q.col(atom_i[b + a]) - q.col(atom_j[b + a]);
-      image[a] = box.minimum_image(raw) - raw;
+      // Positions are never wrapped within a run, so a bond has the same periodic image at q_ref,
+      // q and every iterate (corrections are far below half a box): the minimum image is taken
+      // once, r = q_i − q_j + image.
+      const Vec3 raw = q_ref.col(atom_i[b + a]) - q_ref.col(atom_j[b + a]);
+      r_ref[a] = box.minimum_image(raw);
+      image[a] = r_ref[a] - raw;
       lambda[a] = 0;
       for (int c = 0; c < m; ++c) coef(a, c) = coefficient(b + a, b + c, w);
     }
     ClusterOutcome out;
-    for (;;) {
-      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    double r2[kSmallMax];
+    auto exact_deviation = [&] {
       out.deviation = 0;
       out.worst = b;
-      bool finite = true;
       for (int a = 0; a < m; ++a) {
-        r[a] = q.col(atom_i[b + a]) - q.col(atom_j[b + a]) + image[a];
-        const double r2 = r[a].squaredNorm(), d = length[b + a];
-        g[a] = 0.5 * (r2 - d * d);
-        const double dev = relative_deviation(r2, d);
-        finite = finite && std::isfinite(dev);
+        const double dev = relative_deviation(r2[a], length[b + a]);
         if (dev > out.deviation) out.deviation = dev, out.worst = b + a;
       }
-      if (!finite) out.deviation = std::numeric_limits<double>::quiet_NaN();
-      if (out.deviation <= tolerance) return out;
-      if (!finite || out.iterations >= max_iterations) {
+    };
+    for (;;) {
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      bool inside = true, finite = true;
+      for (int a = 0; a < m; ++a) {
+        r[a] = q.col(atom_i[b + a]) - q.col(atom_j[b + a]) + image[a];
+        r2[a] = r[a].squaredNorm();
+        const double d = length[b + a];
+        g[a] = 0.5 * (r2[a] - d * d);
+        inside = inside && within(r2[a], d, tolerance);
+        finite = finite && std::isfinite(r2[a]);
+      }
+      if (inside) {
+        exact_deviation();
+        if (out.deviation <= tolerance) return out;
+      }
+      if (!finite) {
+        out.deviation = std::numeric_limits<double>::quiet_NaN();
+        out.failed = true;
+        return out;
+      }
+      if (out.iterations >= max_iterations) {
+        exact_deviation();
         out.failed = true;
         return out;
       }
@@ -609,23 +633,35 @@ void Constraints::Factorization::solve(Eigen::VectorXd& rhs) const {
 
 namespace {
 
-// Bond deviations of one cluster at q: stores the current bond vectors r = q_i − q_j + image
-// and g_a (cluster order) and records the worst relative deviation.
+// Bond vectors r = q_i − q_j + image and g_a of one cluster at q (cluster order). Returns whether
+// every bond is within the tolerance window; sets finite and size = max |g_a| / d_a² (≈ the
+// worst relative deviation, to judge the convergence rate).
 template <class Layout>
-void measure(const Layout& L, const typename Layout::Cluster& cl, const Coords& q, const Coords& image, Coords& r,
-             Eigen::VectorXd& g, ClusterOutcome& out) {
-  out.deviation = 0;
-  out.worst = cl.begin;
-  bool finite = true;
+bool measure(const Layout& L, const typename Layout::Cluster& cl, const Coords& q, const Coords& image,
+             double tolerance, Coords& r, Eigen::VectorXd& g, bool& finite, double& size) {
+  bool inside = true;
+  finite = true;
+  size = 0;
   for (int p = cl.begin; p < cl.end; ++p) {
     r.col(p) = q.col(L.atom_i[p]) - q.col(L.atom_j[p]) + image.col(p);
     const double r2 = r.col(p).squaredNorm(), d = L.length[p];
     g[p] = 0.5 * (r2 - d * d);
-    const double dev = relative_deviation(r2, d);
-    finite = finite && std::isfinite(dev);
+    inside = inside && within(r2, d, tolerance);
+    finite = finite && std::isfinite(r2);
+    size = std::max(size, std::abs(g[p]) / (d * d));
+  }
+  return inside;
+}
+
+// The worst relative deviation of a cluster from the bond vectors measure() stored.
+template <class Layout>
+void exact_deviation(const Layout& L, const typename Layout::Cluster& cl, const Coords& r, ClusterOutcome& out) {
+  out.deviation = 0;
+  out.worst = cl.begin;
+  for (int p = cl.begin; p < cl.end; ++p) {
+    const double dev = relative_deviation(r.col(p).squaredNorm(), L.length[p]);
     if (dev > out.deviation) out.deviation = dev, out.worst = p;
   }
-  if (!finite) out.deviation = std::numeric_limits<double>::quiet_NaN();
 }
 
 }  // namespace
@@ -650,17 +686,27 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
     ClusterOutcome out;
     double* delta = ws.delta.data() + b;
     for (int p = b; p < b + m; ++p) {
-      ws.r_ref.col(p) = L.bond(q_ref, p);
-      // As in the small kernel: the periodic image of a bond is fixed during the solve.
-      const Vec3 raw = q.col(L.atom_i[p]) - q.col(L.atom_j[p]);
-      ws.image.col(p) = L.box.minimum_image(raw) - raw;
+      // As in the small kernel: one periodic image per bond for q_ref, q and every iterate.
+      const Vec3 raw = q_ref.col(L.atom_i[p]) - q_ref.col(L.atom_j[p]);
+      ws.r_ref.col(p) = L.box.minimum_image(raw);
+      ws.image.col(p) = ws.r_ref.col(p) - raw;
       ws.lambda[p] = 0;
     }
     double previous = std::numeric_limits<double>::infinity();
     for (;;) {
-      measure(L, cl, q, ws.image, ws.r_cur, ws.g, out);
-      if (out.deviation <= tolerance) return out;
-      if (!(out.deviation < std::numeric_limits<double>::infinity()) || out.iterations >= max_iterations) {
+      bool finite;
+      double size;
+      if (measure(L, cl, q, ws.image, tolerance, ws.r_cur, ws.g, finite, size)) {
+        exact_deviation(L, cl, ws.r_cur, out);
+        if (out.deviation <= tolerance) return out;
+      }
+      if (!finite) {
+        out.deviation = std::numeric_limits<double>::quiet_NaN();
+        out.failed = true;
+        return out;
+      }
+      if (out.iterations >= max_iterations) {
+        exact_deviation(L, cl, ws.r_cur, out);
         out.failed = true;
         return out;
       }
@@ -668,8 +714,9 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
       // iteration; sparse ones start from the symmetric S(q_ref) (one cheap LDLᵀ) and switch to
       // the exact matrix only when that converges slowly.
       const bool chord_start = cl.kind == Kind::Sparse && out.iterations == 0;
-      const bool refresh = cl.kind == Kind::Dense || chord_start || out.deviation > kChordRate * previous;
+      const bool refresh = cl.kind == Kind::Dense || chord_start || size > kChordRate * previous;
       if (refresh && !f.factor(cl, chord_start ? ws.r_ref : ws.r_cur, ws.r_ref, wp, chord_start)) {
+        exact_deviation(L, cl, ws.r_cur, out);
         out.failed = out.singular = true;
         return out;
       }
@@ -681,7 +728,7 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
         q.col(j) -= (wp[j] * delta[a]) * ws.r_ref.col(b + a);
         ws.lambda[b + a] += delta[a];
       }
-      previous = out.deviation;
+      previous = size;
       ++out.iterations;
     }
   };
