@@ -68,7 +68,9 @@ struct VariationalIntegrator::Work {
   ProjectedPoint proj_plus, proj_minus, proj_q;
   Coords q, v, p_plus;          // the unknowns
   Coords qbar, pbar;            // the cotangent state
-  Coords p_offset;              // p̄ − M·V⁺ at the last accepted point
+  Coords p_offset;              // p̄ − Π(M·V⁺) at the last accepted point, Π tangential at ∂⁺
+  Coords q_standard, v_standard;  // this step's standard-layer prediction
+  Coords q_offset, v_offset;      // last step's solution minus its standard-layer prediction
   Coords rho_q, rho_v, minus_q, minus_v, p_hat;
   Coords dq, dv, dp, trial, v_trial;
   Eigen::VectorXd nu;
@@ -88,7 +90,7 @@ struct VariationalIntegrator::Work {
         mass_q(p.constraints, p.inverse_mass) {
     const int n = static_cast<int>(p.inverse_mass.size());
     for (Coords* c : {&q, &v, &p_plus, &qbar, &pbar, &p_offset, &rho_q, &rho_v, &minus_q, &minus_v, &p_hat, &dq, &dv,
-                      &dp, &trial, &v_trial})
+                      &dp, &trial, &v_trial, &q_standard, &v_standard, &q_offset, &v_offset})
       c->setZero(3, n);
     history_x.assign(s.anderson_depth > 0 ? s.anderson_depth + 1 : 0, Eigen::Matrix<double, 9, Eigen::Dynamic>(9, n));
     history_f = history_x;
@@ -159,6 +161,15 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
   w.euclid_q.apply(w.rho_q);
 }
 
+// p̄ − Π(M V⁺) at the accepted point, both tangent at q̄ = ∂⁺(w). Its normal part would be
+// rotated into the tangent space at the next ∂⁺ and spoil the prediction, hence Π.
+void VariationalIntegrator::record_momentum_offset(Work& w) const {
+  const Eigen::VectorXd& mass = w.problem->system.mass;
+  for_each_atom(static_cast<int>(w.q.cols()), [&](int i) { w.p_offset.col(i) = mass[i] * w.seg_plus.v.col(i); });
+  w.euclid_plus.apply(w.p_offset);
+  w.p_offset = w.pbar - w.p_offset;
+}
+
 void VariationalIntegrator::write_state(Work& w, State& state) const {
   const Forces& forces = w.seg_plus.stages[0].forces;  // at exactly w.q
   state.q = w.q;
@@ -216,7 +227,7 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   }
   w.qbar = w.proj_plus.x;
   w.pbar = w.p_plus;
-  for_each_atom(n, [&](int i) { w.p_offset.col(i) = w.pbar.col(i) - mass[i] * w.seg_plus.v.col(i); });
+  record_momentum_offset(w);
   write_state(w, state);
 }
 
@@ -234,6 +245,18 @@ void VariationalIntegrator::predict(Work& w, const State& state, long step) {
     w.v = w.seg_predict.v;
   }
   w.mass_q.set_point(w.q);
+  w.mass_q.apply(w.v);
+  w.q_standard = w.q;
+  w.v_standard = w.v;
+  if (!settings_.predictor_offsets) return;
+  // The solution differs from the standard step by a smooth O(h^{p+1}) amount: add last step's.
+  if (settings_.alpha_minus != 0) {
+    w.trial = w.q + w.q_offset;
+    w.projection.project(w.trial, w.proj_q, step);
+    w.q = w.proj_q.x;
+    w.mass_q.set_point(w.q);
+  }
+  w.v += w.v_offset;
   w.mass_q.apply(w.v);
 }
 
@@ -328,7 +351,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     if (it == 1) {
       for_each_atom(n, [&](int i) {
         w.p_plus.col(i) = mass[i] * w.seg_plus.v.col(i);
-        if (settings_.momentum_offset) w.p_plus.col(i) += w.p_offset.col(i);
+        if (settings_.predictor_offsets) w.p_plus.col(i) += w.p_offset.col(i);
       });
     }
     w.euclid_plus.set_point(w.proj_plus.x);
@@ -356,7 +379,9 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   w.qbar = w.proj_plus.x;
   w.pbar = w.p_plus + w.dp;
   w.euclid_plus.apply(w.pbar);
-  for_each_atom(n, [&](int i) { w.p_offset.col(i) = w.pbar.col(i) - mass[i] * w.seg_plus.v.col(i); });
+  record_momentum_offset(w);
+  w.q_offset = w.q - w.q_standard;
+  w.v_offset = w.v - w.v_standard;
   write_state(w, state);
 
   StepReport report;

@@ -25,8 +25,9 @@ struct VariationalSettings {
   double tolerance = 1e-8;
   int max_iterations = 50;
   int anderson_depth = 0;  // 0: plain fixed-point iteration; m > 0: Anderson mixing over m differences
-  // Predict p⁺ as M·V⁺ plus the previous step's offset p̄ − M·V⁺ (else M·V⁺ alone).
-  bool momentum_offset = true;
+  // Predictor: the standard layer's step Φ_h(w_k) for (q, v) and Π(M·V⁺) for p⁺, each corrected
+  // by the previous step's difference between solution and prediction (else uncorrected).
+  bool predictor_offsets = true;
 
   // From [integrator]; InputError for a bad bias or projection. `file` names the config in errors.
   static VariationalSettings from_config(const IntegratorConfig& config, const std::string& file = "[integrator]");
@@ -63,6 +64,7 @@ class VariationalIntegrator : public Integrator {
   void predict(Work& w, const State& state, long step);
   void update(Work& w, int iteration, long step);
   void write_state(Work& w, State& state) const;
+  void record_momentum_offset(Work& w) const;
 
   VariationalSettings settings_;
   std::unique_ptr<Work> work_;
