@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
 
 #include "engine/errors.hpp"
+#include "engine/simd.hpp"
 
 namespace vimd {
 
@@ -16,6 +18,7 @@ namespace {
 
 constexpr int kCluster = NeighborList::kClusterSize;
 constexpr int kHalf = NeighborList::kHalfSize;
+constexpr const unsigned* kLaneBit = NeighborList::kLaneBit;
 
 // The half list keeps an image of a cluster paired with itself only for one of ±shift.
 bool is_positive_image(const Eigen::Vector3i& n) {
@@ -51,6 +54,7 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
     shift_index_range_.push_back(length > 0 ? static_cast<int>(std::ceil(list_range / length)) : 0);
   }
   const int mx = shift_index_range_[0], my = shift_index_range_[1], mz = shift_index_range_[2];
+  zero_shift_ = ((2 * mx + 1) * (2 * my + 1) * (2 * mz + 1)) / 2;  // (0,0,0) is the middle image
   for (int sx = -mx; sx <= mx; ++sx)
     for (int sy = -my; sy <= my; ++sy)
       for (int sz = -mz; sz <= mz; ++sz) {
@@ -168,6 +172,24 @@ void NeighborList::bin_atoms(const Coords& q) {
       atom_slot_[sorted[k]] = slot;
     }
   }
+  cluster_occupancy_.assign(n_clusters_, 0u);
+  for (auto& w : slot_wrapped_) w.assign(slot_atom_.size(), 0.0);
+  for (int s = 0; s < n_slots(); ++s) {
+    const int a = slot_atom_[s];
+    if (a < 0) continue;
+    cluster_occupancy_[s / kCluster] |= kLaneBit[s % kCluster];
+    for (int k = 0; k < 3; ++k) slot_wrapped_[k][s] = wrapped_(k, a);
+  }
+  // Exclusions in slot indices, contiguous per slot, for the mask computation.
+  excluded_start_.assign(n_slots() + 1, 0);
+  excluded_slot_.clear();
+  for (int s = 0; s < n_slots(); ++s) {
+    const int a = slot_atom_[s];
+    if (a >= 0 && !exclusions_.empty())
+      for (int p : exclusions_[a])
+        if (p != a) excluded_slot_.push_back(atom_slot_[p]);
+    excluded_start_[s + 1] = static_cast<int>(excluded_slot_.size());
+  }
 }
 
 void NeighborList::compute_bounds() {
@@ -190,61 +212,85 @@ void NeighborList::compute_bounds() {
   }
 }
 
-std::uint32_t NeighborList::pair_mask(int i_half, int j_cluster, bool zero_shift) const {
+std::uint32_t NeighborList::pair_mask(int i_half, int j_cluster, int shift_index) const {
+  const double range2 = (cutoff_ + skin_) * (cutoff_ + skin_);
   const int i_first = i_half * kHalf;
   const int j_first = j_cluster * kCluster;
-  const int i_in_cluster = (i_half % 2) * kHalf;
+  const Vec3& shift = shift_vectors_[shift_index];
+  const double* x = slot_wrapped_[0].data();
+  const double* y = slot_wrapped_[1].data();
+  const double* z = slot_wrapped_[2].data();
+  // Only pairs within cut-off + skin now can come inside the cut-off before the next build.
+  static_assert(kCluster == kSimdWidth, "a j-cluster is one SIMD vector");
+  const SimdDouble xj = simd_load(x + j_first), yj = simd_load(y + j_first), zj = simd_load(z + j_first);
   std::uint32_t mask = 0;
   for (int ii = 0; ii < kHalf; ++ii) {
-    const int a = slot_atom_[i_first + ii];
-    if (a < 0) continue;
-    for (int jj = 0; jj < kCluster; ++jj) {
-      if (slot_atom_[j_first + jj] < 0) continue;
-      if (j_cluster == i_half / 2) {
-        if (zero_shift && jj <= i_in_cluster + ii) continue;  // each pair inside a cluster once
-        if (jj == i_in_cluster + ii) continue;                 // never an atom with its own image
-      }
-      mask |= 1u << (ii * kCluster + jj);
+    const SimdDouble dx = (x[i_first + ii] - shift[0]) - xj, dy = (y[i_first + ii] - shift[1]) - yj,
+                     dz = (z[i_first + ii] - shift[2]) - zj;
+    mask |= simd_bits(dx * dx + dy * dy + dz * dz < range2) << (ii * kCluster);
+  }
+  const unsigned occupied = cluster_occupancy_[j_cluster];
+  const int i_in_cluster = (i_half % 2) * kHalf;
+  for (int ii = 0; ii < kHalf; ++ii) {
+    unsigned allowed = slot_atom_[i_first + ii] < 0 ? 0u : occupied;
+    if (j_cluster == i_half / 2) {
+      const int self = i_in_cluster + ii;
+      if (shift_index == zero_shift_)
+        allowed &= ~((2u << self) - 1);  // each pair inside a cluster once: only j > i
+      else
+        allowed &= ~(1u << self);  // never an atom with its own image
     }
-    if (exclusions_.empty()) continue;
-    for (int p : exclusions_[a]) {
-      const int ps = atom_slot_[p];
-      if (ps / kCluster == j_cluster) mask &= ~(1u << (ii * kCluster + ps % kCluster));
+    for (int k = excluded_start_[i_first + ii]; k < excluded_start_[i_first + ii + 1]; ++k) {
+      const int ps = excluded_slot_[k];
+      if (ps / kCluster == j_cluster) allowed &= ~(1u << (ps % kCluster));
     }
+    mask &= ~(0xffu << (ii * kCluster)) | (allowed << (ii * kCluster));
   }
   return mask;
 }
+
+namespace {
+
+double box_distance2(const Vec3& ilo, const Vec3& ihi, const Vec3& jlo, const Vec3& jhi, const Vec3& shift) {
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double above = jlo[k] + shift[k] - ihi[k], below = ilo[k] - jhi[k] - shift[k];
+    const double gap = above > 0 ? above : (below > 0 ? below : 0.0);
+    d2 += gap * gap;
+  }
+  return d2;
+}
+
+}  // namespace
 
 void NeighborList::search_pairs() {
   const double list_range = cutoff_ + skin_;
   const double range2 = list_range * list_range;
   const int n_halves = 2 * n_clusters_;
-  const int zero_shift = static_cast<int>(shift_vectors_.size() / 2);  // (0,0,0) is the middle image
 
   std::vector<int> count(n_halves + 1, 0);
   std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
 #pragma omp parallel
   {
-    // Contiguous blocks per thread, concatenated in thread order: the list does not depend on
-    // the thread count.
+    // Contiguous blocks of clusters per thread, concatenated in thread order: the list does not
+    // depend on the thread count.
     const int t = omp_get_thread_num();
-    const auto [first, last] = static_block(n_halves, t, omp_get_num_threads());
+    const auto [first, last] = static_block(n_clusters_, t, omp_get_num_threads());
     std::vector<Entry>& out = per_thread[t];
     out.clear();
-    std::vector<Entry> found;
-    for (int h = first; h < last; ++h) {
-      const Bounds& bi = half_bounds_[h];
-      if (bi.lo[0] > bi.hi[0]) continue;  // all padding
-      const int a_cluster = h / 2;
-      found.clear();
+    std::vector<Entry> found[2];
+    for (int a_cluster = first; a_cluster < last; ++a_cluster) {
+      // Candidates by the bounding box of the whole i-cluster, then per half.
+      const Bounds& ba = cluster_bounds_[a_cluster];
+      found[0].clear();
+      found[1].clear();
       for (int si = 0; si < static_cast<int>(shift_vectors_.size()); ++si) {
         const Vec3& shift = shift_vectors_[si];
-        const bool positive = is_positive_image(shift_images_[si]);
         int c_lo[2], c_hi[2];
         bool empty = false;
         for (int k = 0; k < 2; ++k) {
-          const double lo = (bi.lo[k] - list_range - shift[k] - grid_lo_[k]) / column_width_[k];
-          const double hi = (bi.hi[k] + list_range - shift[k] - grid_lo_[k]) / column_width_[k];
+          const double lo = (ba.lo[k] - list_range - shift[k] - grid_lo_[k]) / column_width_[k];
+          const double hi = (ba.hi[k] + list_range - shift[k] - grid_lo_[k]) / column_width_[k];
           if (hi < 0 || lo >= n_columns_[k]) {
             empty = true;
             break;
@@ -253,29 +299,49 @@ void NeighborList::search_pairs() {
           c_hi[k] = std::min(n_columns_[k] - 1, static_cast<int>(std::floor(hi)));
         }
         if (empty) continue;
+        const bool positive = is_positive_image(shift_images_[si]);
+        // Clusters of a column are sorted by z: only a window of them can be in range.
+        const double z_lo = ba.lo[2] - list_range - shift[2], z_hi = ba.hi[2] + list_range - shift[2];
         for (int cx = c_lo[0]; cx <= c_hi[0]; ++cx)
           for (int cy = c_lo[1]; cy <= c_hi[1]; ++cy) {
+            // Skip the corners of the square of columns that lie outside the range in x-y.
+            double column_gap2 = 0;
+            for (int k = 0; k < 2; ++k) {
+              const double lo = grid_lo_[k] + (k == 0 ? cx : cy) * column_width_[k] + shift[k];
+              const double gap = std::max({0.0, lo - ba.hi[k], ba.lo[k] - lo - column_width_[k]});
+              column_gap2 += gap * gap;
+            }
+            if (column_gap2 >= range2) continue;
             const int column = cx * n_columns_[1] + cy;
-            for (int b = std::max(a_cluster, column_cluster_start_[column]); b < column_cluster_start_[column + 1];
-                 ++b) {
-              if (b == a_cluster && si != zero_shift && !positive) continue;
+            const int column_end = column_cluster_start_[column + 1];
+            const int window_start = static_cast<int>(
+                std::partition_point(cluster_bounds_.begin() + column_cluster_start_[column],
+                                     cluster_bounds_.begin() + column_end, [&](const Bounds& b) { return b.hi[2] < z_lo; }) -
+                cluster_bounds_.begin());
+            for (int b = std::max(a_cluster, window_start); b < column_end; ++b) {
               const Bounds& bj = cluster_bounds_[b];
-              double d2 = 0;
-              for (int k = 0; k < 3; ++k) {
-                const double gap = std::max({0.0, bj.lo[k] + shift[k] - bi.hi[k], bi.lo[k] - bj.hi[k] - shift[k]});
-                d2 += gap * gap;
+              if (bj.lo[2] > z_hi) break;
+              // The half list keeps a cluster's own images for one of ±shift only.
+              if (b == a_cluster && si != zero_shift_ && !positive) continue;
+              if (box_distance2(ba.lo, ba.hi, bj.lo, bj.hi, shift) >= range2) continue;
+              for (int hh = 0; hh < 2; ++hh) {
+                const int h = 2 * a_cluster + hh;
+                const Bounds& bh = half_bounds_[h];
+                if (bh.lo[0] > bh.hi[0]) continue;  // all padding
+                if (box_distance2(bh.lo, bh.hi, bj.lo, bj.hi, shift) >= range2) continue;
+                const std::uint32_t mask = pair_mask(h, b, si);
+                if (mask != 0) found[hh].push_back({b, si, mask});
               }
-              if (d2 >= range2) continue;
-              const std::uint32_t mask = pair_mask(h, b, si == zero_shift);
-              if (mask != 0) found.push_back({b, si, mask});
             }
           }
       }
-      std::sort(found.begin(), found.end(), [](const Entry& x, const Entry& y) {
-        return x.j_cluster < y.j_cluster || (x.j_cluster == y.j_cluster && x.shift < y.shift);
-      });
-      count[h + 1] = static_cast<int>(found.size());
-      out.insert(out.end(), found.begin(), found.end());
+      for (int hh = 0; hh < 2; ++hh) {
+        std::sort(found[hh].begin(), found[hh].end(), [](const Entry& x, const Entry& y) {
+          return x.j_cluster < y.j_cluster || (x.j_cluster == y.j_cluster && x.shift < y.shift);
+        });
+        count[2 * a_cluster + hh + 1] = static_cast<int>(found[hh].size());
+        out.insert(out.end(), found[hh].begin(), found[hh].end());
+      }
     }
   }
   half_start_.assign(n_halves + 1, 0);

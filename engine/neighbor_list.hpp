@@ -25,11 +25,15 @@ class NeighborList {
  public:
   static constexpr int kClusterSize = 8;  // j-cluster: one 8-wide SIMD vector of doubles
   static constexpr int kHalfSize = kClusterSize / 2;
+  // Bit of lane jj in a mask row, as a table: GCC 12 vectorises (row & kLaneBit[jj]) but not the
+  // equivalent (row >> jj) & 1.
+  alignas(64) static constexpr unsigned kLaneBit[kClusterSize] = {1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u};
 
   struct Entry {
     int j_cluster;
     int shift;           // index into shift_vectors(); the j atoms are taken at x_j + shift
-    std::uint32_t mask;  // bit (ii * kClusterSize + jj): i-half atom ii interacts with j atom jj
+    std::uint32_t mask;  // bit (ii * kClusterSize + jj): i-half atom ii interacts with j atom jj, and their
+                         // distance at the build was below cutoff + skin
   };
   // An excluded atom pair (i < j in atom order) in slot indices, with the shift that gives its
   // minimum image; kept for interactions that act on excluded pairs (reaction-field correction).
@@ -80,7 +84,7 @@ class NeighborList {
   void compute_bounds();
   void search_pairs();
   void collect_excluded_pairs();
-  std::uint32_t pair_mask(int i_half, int j_cluster, bool zero_shift) const;
+  std::uint32_t pair_mask(int i_half, int j_cluster, int shift_index) const;
 
   Box box_;
   double cutoff_, skin_;
@@ -100,10 +104,14 @@ class NeighborList {
 
   int n_clusters_ = 0;
   std::vector<int> slot_atom_, atom_slot_;
+  std::vector<double> slot_wrapped_[3];        // wrapped build positions in slot order
+  std::vector<unsigned> cluster_occupancy_;     // per cluster: bit k set if slot k holds an atom
+  std::vector<int> excluded_start_, excluded_slot_;  // per slot: slots of its excluded partners
   std::vector<Bounds> cluster_bounds_, half_bounds_;
   std::vector<int> shift_index_range_;  // per dimension: images −m..m are searched
   std::vector<Vec3> shift_vectors_;
   std::vector<Eigen::Vector3i> shift_images_;
+  int zero_shift_ = 0;
   std::vector<int> half_start_;
   std::vector<Entry> entries_;
   std::vector<ExcludedPair> excluded_pairs_;

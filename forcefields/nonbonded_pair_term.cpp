@@ -14,14 +14,17 @@ namespace {
 
 constexpr int kC = NeighborList::kClusterSize;
 constexpr int kH = NeighborList::kHalfSize;
+static_assert(kC == kSimdWidth, "a j-cluster is one SIMD vector");
 
-// Everything the inner loops read, as plain pointers.
+// Everything the inner loops read, as plain pointers. Positions, charges and LJ parameters are in
+// slot order; lj_c6[t * n_slots + s] is c6 between type t and the atom in slot s (likewise c12),
+// so a j-cluster's parameters for an i atom are one contiguous vector load.
 struct PairView {
   const double *x, *y, *z;
   const double* charge;
   const int* type;
-  const double *c6, *c12;
-  int n_types;
+  const double *lj_c6, *lj_c12;
+  std::size_t n_slots;
   const NeighborList::Entry* entries;
   const int* half_start;
   const Vec3* shifts;
@@ -31,180 +34,160 @@ struct PairView {
   ReactionField rf;
 };
 
+// Lanes of an entry's mask row (8 bits) that interact and are inside the cut-off.
+inline SimdMask lanes_inside(unsigned row_bits, SimdDouble r2, double cutoff2) {
+  const SimdMask lane_bit = {1, 2, 4, 8, 16, 32, 64, 128};
+  return (((SimdMask{} + static_cast<std::int64_t>(row_bits)) & lane_bit) != 0) & (r2 < cutoff2);
+}
+
+// The i-half's atoms, loaded once per half. The i sums stay in registers over the whole half; each
+// j-cluster is updated once per entry.
+struct HalfData {
+  double x[kH], y[kH], z[kH], q[kH];
+  const double *c6[kH], *c12[kH];
+};
+
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
 // on the thread count (the Coulomb sum cancels strongly and would otherwise show it).
 template <VdwModifier M, bool kCoulomb>
 void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
                   double* half_coulomb) {
+  const SimdDouble one = simd_broadcast(1.0), zero{};
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     half_lj[h] = half_coulomb[h] = 0;
     if (e0 == e1) continue;
-    alignas(64) double lane_lj[kC] = {}, lane_coulomb[kC] = {};
     const int ib = h * kH;
-    double xi[kH], yi[kH], zi[kH], qi[kH];
-    int row[kH];
+    HalfData hi;
     for (int ii = 0; ii < kH; ++ii) {
-      xi[ii] = d.x[ib + ii];
-      yi[ii] = d.y[ib + ii];
-      zi[ii] = d.z[ib + ii];
-      qi[ii] = d.rf.prefactor * d.charge[ib + ii];
-      row[ii] = d.type[ib + ii] * d.n_types;
+      hi.x[ii] = d.x[ib + ii];
+      hi.y[ii] = d.y[ib + ii];
+      hi.z[ii] = d.z[ib + ii];
+      hi.q[ii] = d.rf.prefactor * d.charge[ib + ii];
+      hi.c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
+      hi.c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
     }
-    alignas(64) double fxi[kH][kC] = {}, fyi[kH][kC] = {}, fzi[kH][kC] = {};
+    SimdDouble fxi[kH] = {}, fyi[kH] = {}, fzi[kH] = {};
+    SimdDouble e_lj = zero, e_coulomb = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       const int jb = entry.j_cluster * kC;
       const Vec3& shift = d.shifts[entry.shift];
-      const double* xj = d.x + jb;
-      const double* yj = d.y + jb;
-      const double* zj = d.z + jb;
-      const double* qj = d.charge + jb;
-      const int* tj = d.type + jb;
-      alignas(64) double fxj[kC] = {}, fyj[kC] = {}, fzj[kC] = {};
+      const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                       zj = simd_load(d.z + jb) + shift[2];
+      const SimdDouble qj = simd_load(d.charge + jb);
+      SimdDouble fxj = zero, fyj = zero, fzj = zero;
       for (int ii = 0; ii < kH; ++ii) {
         const unsigned bits = (entry.mask >> (ii * kC)) & 0xffu;
         if (bits == 0) continue;
-        const double xs = xi[ii] - shift[0], ys = yi[ii] - shift[1], zs = zi[ii] - shift[2];
-        const double* c6row = d.c6 + row[ii];
-        const double* c12row = d.c12 + row[ii];
-        const double qqi = qi[ii];
-#pragma omp simd
-        for (int jj = 0; jj < kC; ++jj) {
-          const double dx = xs - xj[jj], dy = ys - yj[jj], dz = zs - zj[jj];
-          const double r2 = dx * dx + dy * dy + dz * dz;
-          const bool inside = ((bits >> jj) & 1u) && r2 < d.cutoff2;
-          const double r2s = inside ? r2 : 1.0;  // keeps masked lanes finite (r = 0 on the diagonal)
-          const double rinv = 1.0 / std::sqrt(r2s);
-          const double rinv2 = rinv * rinv;
-          double v, g;
-          lj_energy_force<M>(d.lj, c6row[tj[jj]], c12row[tj[jj]], rinv2, r2s * rinv, v, g);
-          double vc = 0, gc = 0;
-          if constexpr (kCoulomb) rf_energy_force(d.rf, qqi * qj[jj], rinv, r2s, vc, gc);
-          const double gt = inside ? g + gc : 0.0;
-          lane_lj[jj] += inside ? v : 0.0;
-          lane_coulomb[jj] += inside ? vc : 0.0;
-          const double fx_ = gt * dx, fy_ = gt * dy, fz_ = gt * dz;
-          fxi[ii][jj] += fx_;
-          fyi[ii][jj] += fy_;
-          fzi[ii][jj] += fz_;
-          fxj[jj] -= fx_;
-          fyj[jj] -= fy_;
-          fzj[jj] -= fz_;
+        const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+        const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
+        const SimdMask inside = lanes_inside(bits, r2, d.cutoff2);
+        const SimdDouble r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
+        const SimdDouble rinv = 1.0 / simd_sqrt(r2s);
+        const SimdDouble rinv2 = rinv * rinv;
+        SimdDouble v, g;
+        lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
+        e_lj += select(inside, v, zero);
+        if constexpr (kCoulomb) {
+          SimdDouble vc, gc;
+          rf_energy_force(d.rf, hi.q[ii] * qj, rinv, r2s, vc, gc);
+          e_coulomb += select(inside, vc, zero);
+          g += gc;
         }
+        g = select(inside, g, zero);
+        const SimdDouble gx = g * dx, gy = g * dy, gz = g * dz;
+        fxi[ii] += gx;
+        fyi[ii] += gy;
+        fzi[ii] += gz;
+        fxj -= gx;
+        fyj -= gy;
+        fzj -= gz;
       }
-#pragma omp simd
-      for (int jj = 0; jj < kC; ++jj) {
-        fx[jb + jj] += fxj[jj];
-        fy[jb + jj] += fyj[jj];
-        fz[jb + jj] += fzj[jj];
-      }
+      simd_store(fx + jb, simd_load(fx + jb) + fxj);
+      simd_store(fy + jb, simd_load(fy + jb) + fyj);
+      simd_store(fz + jb, simd_load(fz + jb) + fzj);
     }
     for (int ii = 0; ii < kH; ++ii) {
-      double sx = 0, sy = 0, sz = 0;
-      for (int jj = 0; jj < kC; ++jj) {
-        sx += fxi[ii][jj];
-        sy += fyi[ii][jj];
-        sz += fzi[ii][jj];
-      }
-      fx[ib + ii] += sx;
-      fy[ib + ii] += sy;
-      fz[ib + ii] += sz;
+      fx[ib + ii] += simd_sum(fxi[ii]);
+      fy[ib + ii] += simd_sum(fyi[ii]);
+      fz[ib + ii] += simd_sum(fzi[ii]);
     }
-    for (int jj = 0; jj < kC; ++jj) {
-      half_lj[h] += lane_lj[jj];
-      half_coulomb[h] += lane_coulomb[jj];
-    }
+    half_lj[h] = simd_sum(e_lj);
+    half_coulomb[h] = simd_sum(e_coulomb);
   }
 }
 
-// (∇²V u) of the i-halves [h0, h1) into the SoA buffer (ox, oy, oz).
+// (∇²V u) of the i-halves [h0, h1) into the SoA buffer (ox, oy, oz): per pair a u_ij + b (d·u_ij) d.
 template <VdwModifier M, bool kCoulomb>
 void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, int h0, int h1,
                     double* ox, double* oy, double* oz) {
+  const SimdDouble one = simd_broadcast(1.0), zero{};
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
     const int ib = h * kH;
-    double xi[kH], yi[kH], zi[kH], qi[kH], uxi[kH], uyi[kH], uzi[kH];
-    int row[kH];
+    HalfData hi;
+    double uxi[kH], uyi[kH], uzi[kH];
     for (int ii = 0; ii < kH; ++ii) {
-      xi[ii] = d.x[ib + ii];
-      yi[ii] = d.y[ib + ii];
-      zi[ii] = d.z[ib + ii];
+      hi.x[ii] = d.x[ib + ii];
+      hi.y[ii] = d.y[ib + ii];
+      hi.z[ii] = d.z[ib + ii];
+      hi.q[ii] = d.rf.prefactor * d.charge[ib + ii];
+      hi.c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
+      hi.c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
       uxi[ii] = ux[ib + ii];
       uyi[ii] = uy[ib + ii];
       uzi[ii] = uz[ib + ii];
-      qi[ii] = d.rf.prefactor * d.charge[ib + ii];
-      row[ii] = d.type[ib + ii] * d.n_types;
     }
-    alignas(64) double oxi[kH][kC] = {}, oyi[kH][kC] = {}, ozi[kH][kC] = {};
+    SimdDouble oxi[kH] = {}, oyi[kH] = {}, ozi[kH] = {};
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       const int jb = entry.j_cluster * kC;
       const Vec3& shift = d.shifts[entry.shift];
-      const double* xj = d.x + jb;
-      const double* yj = d.y + jb;
-      const double* zj = d.z + jb;
-      const double* uxj = ux + jb;
-      const double* uyj = uy + jb;
-      const double* uzj = uz + jb;
-      const double* qj = d.charge + jb;
-      const int* tj = d.type + jb;
-      alignas(64) double oxj[kC] = {}, oyj[kC] = {}, ozj[kC] = {};
+      const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                       zj = simd_load(d.z + jb) + shift[2];
+      const SimdDouble uxj = simd_load(ux + jb), uyj = simd_load(uy + jb), uzj = simd_load(uz + jb);
+      const SimdDouble qj = simd_load(d.charge + jb);
+      SimdDouble oxj = zero, oyj = zero, ozj = zero;
       for (int ii = 0; ii < kH; ++ii) {
         const unsigned bits = (entry.mask >> (ii * kC)) & 0xffu;
         if (bits == 0) continue;
-        const double xs = xi[ii] - shift[0], ys = yi[ii] - shift[1], zs = zi[ii] - shift[2];
-        const double* c6row = d.c6 + row[ii];
-        const double* c12row = d.c12 + row[ii];
-        const double qqi = qi[ii];
-#pragma omp simd
-        for (int jj = 0; jj < kC; ++jj) {
-          const double dx = xs - xj[jj], dy = ys - yj[jj], dz = zs - zj[jj];
-          const double r2 = dx * dx + dy * dy + dz * dz;
-          const bool inside = ((bits >> jj) & 1u) && r2 < d.cutoff2;
-          const double r2s = inside ? r2 : 1.0;
-          const double rinv = 1.0 / std::sqrt(r2s);
-          const double rinv2 = rinv * rinv;
-          double a, b;
-          lj_hessian<M>(d.lj, c6row[tj[jj]], c12row[tj[jj]], rinv2, r2s * rinv, a, b);
-          if constexpr (kCoulomb) {
-            double ac, bc;
-            rf_hessian(d.rf, qqi * qj[jj], rinv, ac, bc);
-            a += ac;
-            b += bc;
-          }
-          const double dux = uxi[ii] - uxj[jj], duy = uyi[ii] - uyj[jj], duz = uzi[ii] - uzj[jj];
-          const double bp = inside ? b * (dx * dux + dy * duy + dz * duz) : 0.0;
-          const double am = inside ? a : 0.0;
-          const double hx = am * dux + bp * dx, hy = am * duy + bp * dy, hz = am * duz + bp * dz;
-          oxi[ii][jj] += hx;
-          oyi[ii][jj] += hy;
-          ozi[ii][jj] += hz;
-          oxj[jj] -= hx;
-          oyj[jj] -= hy;
-          ozj[jj] -= hz;
+        const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+        const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
+        const SimdMask inside = lanes_inside(bits, r2, d.cutoff2);
+        const SimdDouble r2s = select(inside, r2, one);
+        const SimdDouble rinv = 1.0 / simd_sqrt(r2s);
+        const SimdDouble rinv2 = rinv * rinv;
+        SimdDouble a, b;
+        lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
+        if constexpr (kCoulomb) {
+          SimdDouble ac, bc;
+          rf_hessian(d.rf, hi.q[ii] * qj, rinv, ac, bc);
+          a += ac;
+          b += bc;
         }
+        a = select(inside, a, zero);
+        b = select(inside, b, zero);
+        const SimdDouble dux = uxi[ii] - uxj, duy = uyi[ii] - uyj, duz = uzi[ii] - uzj;
+        const SimdDouble bp = b * (dx * dux + dy * duy + dz * duz);
+        const SimdDouble hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
+        oxi[ii] += hx;
+        oyi[ii] += hy;
+        ozi[ii] += hz;
+        oxj -= hx;
+        oyj -= hy;
+        ozj -= hz;
       }
-#pragma omp simd
-      for (int jj = 0; jj < kC; ++jj) {
-        ox[jb + jj] += oxj[jj];
-        oy[jb + jj] += oyj[jj];
-        oz[jb + jj] += ozj[jj];
-      }
+      simd_store(ox + jb, simd_load(ox + jb) + oxj);
+      simd_store(oy + jb, simd_load(oy + jb) + oyj);
+      simd_store(oz + jb, simd_load(oz + jb) + ozj);
     }
     for (int ii = 0; ii < kH; ++ii) {
-      double sx = 0, sy = 0, sz = 0;
-      for (int jj = 0; jj < kC; ++jj) {
-        sx += oxi[ii][jj];
-        sy += oyi[ii][jj];
-        sz += ozi[ii][jj];
-      }
-      ox[ib + ii] += sx;
-      oy[ib + ii] += sy;
-      oz[ib + ii] += sz;
+      ox[ib + ii] += simd_sum(oxi[ii]);
+      oy[ib + ii] += simd_sum(oyi[ii]);
+      oz[ib + ii] += simd_sum(ozi[ii]);
     }
   }
 }
@@ -312,6 +295,14 @@ void NonbondedPairTerm::refresh_layout() {
     slot_type_[s] = type_[a];
   }
   for (auto* v : {&x_, &y_, &z_, &ux_, &uy_, &uz_}) v->resize(n);
+  slot_c6_.assign(static_cast<std::size_t>(n_types_) * n, 0.0);
+  slot_c12_.assign(slot_c6_.size(), 0.0);
+  for (int t = 0; t < n_types_; ++t)
+    for (int s = 0; s < n; ++s) {
+      if (slot_atom[s] < 0) continue;
+      slot_c6_[static_cast<std::size_t>(t) * n + s] = c6_[t * n_types_ + slot_type_[s]];
+      slot_c12_[static_cast<std::size_t>(t) * n + s] = c12_[t * n_types_ + slot_type_[s]];
+    }
   layout_build_ = list_.builds();
 }
 
@@ -393,7 +384,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   prepare(q);
   list_.pack_positions(q, x_.data(), y_.data(), z_.data());
   const PairView view{x_.data(),  y_.data(),  z_.data(),  slot_charge_.data(), slot_type_.data(),
-                      c6_.data(), c12_.data(), n_types_,  list_.entries().data(), list_.half_start().data(),
+                      slot_c6_.data(), slot_c12_.data(), static_cast<std::size_t>(list_.n_slots()),  list_.entries().data(), list_.half_start().data(),
                       list_.shift_vectors().data(), list_.excluded_pairs().data(), cutoff2_, lj_, rf_};
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const auto pair_kernel = coulomb ? force_kernel<true>(modifier_) : force_kernel<false>(modifier_);
@@ -426,7 +417,7 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   list_.pack_positions(q, x_.data(), y_.data(), z_.data());
   list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
   const PairView view{x_.data(),  y_.data(),  z_.data(),  slot_charge_.data(), slot_type_.data(),
-                      c6_.data(), c12_.data(), n_types_,  list_.entries().data(), list_.half_start().data(),
+                      slot_c6_.data(), slot_c12_.data(), static_cast<std::size_t>(list_.n_slots()),  list_.entries().data(), list_.half_start().data(),
                       list_.shift_vectors().data(), list_.excluded_pairs().data(), cutoff2_, lj_, rf_};
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const auto pair_kernel = coulomb ? hessian_kernel<true>(modifier_) : hessian_kernel<false>(modifier_);

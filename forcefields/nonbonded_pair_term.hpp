@@ -57,6 +57,7 @@ class NonbondedPairTerm : public ForceTerm {
   long layout_build_ = -1;  // list build the slot arrays below belong to
   std::vector<double> slot_charge_;
   std::vector<int> slot_type_;
+  std::vector<double> slot_c6_, slot_c12_;  // [type_i * n_slots + slot_j]
   std::vector<double> x_, y_, z_, ux_, uy_, uz_;
   std::vector<std::vector<double>> thread_buffers_;  // per thread: x, y, z blocks of n_slots
   std::vector<double> partial_energies_;             // per i-half and per excluded-pair block
