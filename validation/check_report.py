@@ -10,7 +10,8 @@ for has a row (available or "not available in this build", never dropped); every
 numbers names its command; no NaN; and physical sanity: RATTLE and GROMACS at 2 fs conserve energy
 (|drift| < 0.05 kJ/mol/ps/atom, 0 < RMS fluctuation < 50 kJ/mol), the O-O RDF peaks at 0.26-0.30 nm
 with height 2-4.5, temperatures 250-350 K, diffusion coefficients 1e-6-3e-4 cm²/s, RATTLE's
-observed order 1.5-2.6 (SHAKE's 0.8-2.6: leap-frog from v(-dt/2) is first order), other methods' observed orders within [nominal - 1, nominal + 1.5].
+observed order 1.5-2.6 (SHAKE's 0.8-2.6: leap-frog started from v(-dt/2) is first order), the
+other methods' observed orders within [nominal - 1, nominal + 1.5].
 Exit status 1 with the list of failures otherwise.
 """
 import argparse

@@ -48,10 +48,13 @@ def main():
     ap.add_argument("--quick", action="store_true", help="smoke test: tiny runs of every section (< 5 min)")
     ap.add_argument("--out", type=pathlib.Path, help="report directory (default validation/report, "
                     "or build/report-quick with --quick)")
-    ap.add_argument("--runs", type=pathlib.Path, help="run outputs (default build/study-runs, or OUT/runs with --quick)")
+    ap.add_argument("--runs", type=pathlib.Path,
+                    help="run outputs (default build/study-runs, or OUT/runs with --quick)")
     ap.add_argument("--vimd", type=pathlib.Path, default=pathlib.Path(os.environ.get("VIMD", ROOT / "build" / "vimd")),
                     help="the vimd program (default build/vimd or $VIMD)")
-    ap.add_argument("--threads", type=int, default=2, help="OpenMP threads per run (default 2)")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="OpenMP threads per run (default 1: on a shared machine two threads per run can be "
+                         "several times slower, and one thread compares every integrator on equal footing)")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse a run whose config, binary and thread count are unchanged (development aid)")
     ap.add_argument("--sections", default="scan,order,long",
@@ -61,7 +64,8 @@ def main():
     if not args.vimd.is_file():
         sys.exit(f"study: vimd program {args.vimd} not found (build it: bash app/setup.sh, or pass --vimd PATH)")
     plan = QUICK if args.quick else FULL
-    report_dir = (args.out or (ROOT / "build" / "report-quick" if args.quick else ROOT / "validation" / "report")).resolve()
+    default_report = ROOT / "build" / "report-quick" if args.quick else ROOT / "validation" / "report"
+    report_dir = (args.out or default_report).resolve()
     runs_dir = (args.runs or (report_dir / "runs" if args.quick else ROOT / "build" / "study-runs")).resolve()
     report_dir.mkdir(parents=True, exist_ok=True)
     runs_dir.mkdir(parents=True, exist_ok=True)

@@ -44,9 +44,12 @@ class Runner:
         self.binary_id = f"{stat.st_size}:{stat.st_mtime_ns}" if stat else "missing"
 
     # ---------------------------------------------------------------- helpers
-    def _env(self):
-        env = dict(os.environ)
-        env["OMP_NUM_THREADS"] = str(self.threads)
+    def _env(self, omp):
+        """vimd gets the thread count through OMP_NUM_THREADS; GROMACS through -nt only (mdrun refuses
+        an OMP_NUM_THREADS that disagrees with -nt)."""
+        env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
+        if omp:
+            env["OMP_NUM_THREADS"] = str(self.threads)
         return env
 
     def _cached(self, key_file, key):
@@ -55,11 +58,11 @@ class Runner:
         stored = json.loads(key_file.read_text())
         return stored if stored.get("key") == key else None
 
-    def _execute(self, args, log_file, timeout):
+    def _execute(self, args, log_file, timeout, omp=True):
         """Run a command from the repository root; (returncode, combined output, wall seconds)."""
         start = time.monotonic()
         try:
-            p = subprocess.run(args, cwd=ROOT, env=self._env(), text=True, capture_output=True, timeout=timeout)
+            p = subprocess.run(args, cwd=ROOT, env=self._env(omp), text=True, capture_output=True, timeout=timeout)
             rc, out = p.returncode, p.stdout + p.stderr
         except subprocess.TimeoutExpired as e:
             rc, out = -1, f"{e.stdout or ''}{e.stderr or ''}\nstudy: timeout after {timeout} s"
@@ -168,10 +171,10 @@ class Runner:
             shutil.rmtree(out, ignore_errors=True)
             out.mkdir(parents=True)
             self.log(f"  {' '.join(mdrun)}")
-            rc, text, _ = self._execute(grompp, out / "grompp.log", 300)
+            rc, text, _ = self._execute(grompp, out / "grompp.log", 300, omp=False)
             wall = 0.0
             if rc == 0:
-                rc, text, wall = self._execute(mdrun, out / "mdrun.out", timeout)
+                rc, text, wall = self._execute(mdrun, out / "mdrun.out", timeout, omp=False)
                 log = out / "gmx.log"
                 found = re.search(r"^\s+Time:\s+\S+\s+(\S+)", log.read_text(), re.MULTILINE) if log.exists() else None
                 wall = float(found.group(1)) if found else wall

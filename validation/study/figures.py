@@ -58,7 +58,8 @@ def scan(system, series, path):
     """|drift| and RMS fluctuation against the time step, one line per integrator; unstable runs
     crossed in red, failed runs as red crosses on the top edge, the largest stable step ringed."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
-    metrics = [("drift_per_atom", "|energy drift| (kJ/mol/ps per atom)"), ("rms_fluctuation", "RMS energy fluctuation (kJ/mol)")]
+    metrics = [("drift_per_atom", "|energy drift| (kJ/mol/ps per atom)"),
+               ("rms_fluctuation", "RMS energy fluctuation (kJ/mol)")]
     for ax, (metric, ylabel) in zip(axes, metrics):
         top = blended_transform_factory(ax.transData, ax.transAxes)
         for key, runs in series.items():
@@ -100,8 +101,10 @@ def scan(system, series, path):
 def work_precision(system, series, path):
     """Energy error against cost, log-log, stable runs only."""
     fig, axes = plt.subplots(2, 2, figsize=(12, 9))
-    errors = [("rms_fluctuation", "RMS energy fluctuation (kJ/mol)"), ("drift_per_atom", "|drift| (kJ/mol/ps per atom)")]
-    costs = [("wall_per_ps", "wall time per simulated ps (s)"), ("evaluations_per_ps", "force-evaluation equivalents per ps")]
+    errors = [("rms_fluctuation", "RMS energy fluctuation (kJ/mol)"),
+              ("drift_per_atom", "|drift| (kJ/mol/ps per atom)")]
+    costs = [("wall_per_ps", "wall time per simulated ps (s)"),
+             ("evaluations_per_ps", "force-evaluation equivalents per ps")]
     for i, (err, elabel) in enumerate(errors):
         for j, (cost, clabel) in enumerate(costs):
             ax = axes[i, j]

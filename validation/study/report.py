@@ -91,9 +91,9 @@ def availability(scan, order, long):
 def scan_section(sres):
     name = sres["system"]
     out = [f"### {name} ({sres['atoms']} atoms)\n",
-           f"Force field: {sres['note']}. Each run: {sres['ps']:g} ps NVE from `inputs/{name}/conf.gro` "
-           f"(its velocities), time steps {', '.join(fs(d) for d in sres['dts'])} fs in turn until the first "
-           f"step that is not stable.\n",
+           f"Force field: {sres['note']}. Each run: NVE from `inputs/{name}/conf.gro` (its velocities) for "
+           f"{sres['ps']:g} ps or {sres['max_steps']} steps, whichever is shorter; time steps "
+           f"{', '.join(fs(d) for d in sres['dts'])} fs in turn until the first step that is not stable.\n",
            f"![drift and fluctuation vs time step, {name}](scan_{name}.png)\n",
            "**Largest stable time step** (study.energy.largest_stable):\n"]
     rows = []
@@ -131,65 +131,66 @@ def scan_section(sres):
 # ---------------------------------------------------------------- section 2
 def crossover_sentence(label, c, cost_name):
     """One sentence for a candidate-vs-RATTLE crossover dict; also the error below which the
-    candidate is cheaper (or None) and whether that comes from measurement or a fit."""
+    candidate is cheaper (or None) and whether that rests on RATTLE's measured curve or its fit."""
     kind = c.get("kind")
     if kind == "no data":
-        return f"{label}: no stable runs to compare.", None, None
-    lo, hi = c["overlap"] if c.get("overlap") else (None, None)
-    fit = ""
-    fit_threshold = None
-    if "fit_crossing" in c:
-        x = c["fit_crossing"]
-        side = "below" if c["fit_cheaper_below"] else "above"
-        fit = (f" Power-law fits cost ∝ error^-k (k = {c['fit_reference'][1]:.2f} for RATTLE, "
-               f"{c['fit_candidate'][1]:.2f} for {label}) cross at {num(x, 3)} kJ/mol: {label} would be "
-               f"cheaper {side} that (extrapolated).")
-        fit_threshold = x if c["fit_cheaper_below"] else None
+        if c.get("reference_points", 0) < 2:
+            return f"{label}: RATTLE has fewer than two stable runs, so there is no cost curve to compare.", None, None
+        if not c.get("candidate_points"):
+            return f"{label}: no stable runs to compare.", None, None
+        return (f"{label} is less accurate at every step than RATTLE at its largest stable step: no common "
+                f"accuracy.", None, None)
+    lo, hi = c["range"]
+    r0, r1 = c["ratio_range"]
+    below = c.get("extrapolated_below")
+    basis = (f" (RATTLE's cost below {num(below, 3)} kJ/mol extrapolated with its power law cost ∝ "
+             f"error^-{c['fit_reference'][1]:.2f})" if below else "")
     if kind == "cheaper throughout":
-        return (f"{label} is cheaper than RATTLE in {cost_name} at every accuracy both reach (RMS fluctuation "
-                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol; cost ratio {num(c['ratio_range'][0], 3)}-"
-                f"{num(c['ratio_range'][1], 3)}).", hi, "measured")
+        return (f"{label} is cheaper than RATTLE in {cost_name} at every accuracy compared, RMS fluctuation "
+                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol ({num(r0, 3)}-{num(r1, 3)}x RATTLE's cost){basis}.",
+                hi, "cheaper at every accuracy compared, the least accurate being this")
     if kind == "dearer throughout":
-        return (f"{label} costs more than RATTLE in {cost_name} at every accuracy both reach ({num(lo, 3)}-"
-                f"{num(hi, 3)} kJ/mol; {num(c['ratio_range'][0], 3)}-{num(c['ratio_range'][1], 3)}x RATTLE's cost)."
-                + fit, fit_threshold, "extrapolated" if fit_threshold else None)
-    if kind == "crossing":
-        xs = ", ".join(num(x, 3) for x in c["crossings"])
-        if c["cheaper_below"]:
-            return (f"{label} is cheaper than RATTLE in {cost_name} for RMS fluctuation below {xs} kJ/mol and "
-                    f"dearer above (measured crossing in {num(lo, 3)}-{num(hi, 3)} kJ/mol).",
-                    c["crossings"][0], "measured")
-        return (f"{label} is cheaper than RATTLE in {cost_name} only above {xs} kJ/mol RMS fluctuation "
-                f"(measured crossing in {num(lo, 3)}-{num(hi, 3)} kJ/mol)." + fit, fit_threshold,
-                "extrapolated" if fit_threshold else None)
-    # no overlap of the error ranges
-    return (f"{label} and RATTLE reach no common accuracy (no overlapping RMS fluctuation range)." + fit,
-            fit_threshold, "extrapolated" if fit_threshold else None)
+        return (f"{label} costs more than RATTLE in {cost_name} at every accuracy compared, RMS fluctuation "
+                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol ({num(r0, 3)}-{num(r1, 3)}x RATTLE's cost){basis}.", None, None)
+    xs = ", ".join(f"{num(x, 3)} kJ/mol ({'measured' if m else 'RATTLE extrapolated'})" for x, m in c["crossings"])
+    if c["cheaper_below"]:
+        x, m = c["crossings"][0]
+        return (f"{label} is cheaper than RATTLE in {cost_name} for RMS fluctuation below {xs}, dearer above "
+                f"(compared over {num(lo, 3)}-{num(hi, 3)} kJ/mol){basis}.", x,
+                "measured crossing" if m else "crossing with RATTLE's cost extrapolated")
+    return (f"{label} is cheaper than RATTLE in {cost_name} only above {xs} (compared over {num(lo, 3)}-"
+            f"{num(hi, 3)} kJ/mol){basis}.", None, None)
+
+
+COSTS = (("wall_per_ps", "wall time per ps"), ("evaluations_per_ps", "force-evaluation equivalents per ps"))
 
 
 def crossover_block(sres):
-    rows, best = [], None
+    """The crossover statement (per cost measure, the variational integrator that becomes cheaper
+    than RATTLE at the loosest accuracy) and the table of every integrator against RATTLE."""
+    rows, best = [], {}
     for key, costs in sres["crossovers"].items():
         label = sres["series"][key][0]["label"]
-        for cost, cost_name in (("wall_per_ps", "wall time per ps"), ("evaluations_per_ps", "force-evaluation equivalents per ps")):
+        for cost, cost_name in COSTS:
             sentence, threshold, how = crossover_sentence(label, costs[cost], cost_name)
             rows.append([label, cost_name, sentence])
-            if key.startswith("vi-") and cost == "wall_per_ps" and threshold is not None:
-                rank = (how == "measured", threshold)
-                if best is None or rank > best[0]:
-                    best = (rank, label, threshold, how)
+            if key.startswith("vi-") and threshold is not None and (cost not in best or threshold > best[cost][1]):
+                best[cost] = (label, threshold, how)
     ran = [k for k, runs in sres["series"].items() if k.startswith("vi-") and any(r["status"] == "ok" for r in runs)]
     if not ran:
         headline = (f"On {sres['system']}, no variational integrator has a stable run in this build (see the "
                     f"availability table), so no crossover can be stated.")
-    elif best is None:
-        headline = (f"On {sres['system']}, no variational integrator is cheaper than RATTLE in wall time at any "
-                    f"accuracy measured here, nor by power-law extrapolation of the measured cost curves.")
     else:
-        _, label, threshold, how = best
-        headline = (f"On {sres['system']}, the variational integrators become cheaper than RATTLE in wall time "
-                    f"from an RMS energy fluctuation of about {num(threshold, 3)} kJ/mol downward "
-                    f"({label}; {how}).")
+        parts = []
+        for cost, cost_name in COSTS:
+            if cost in best:
+                label, threshold, how = best[cost]
+                parts.append(f"in {cost_name}, the variational integrators are cheaper than RATTLE from an RMS "
+                             f"energy fluctuation of about {num(threshold, 3)} kJ/mol downward ({label}; {how})")
+            else:
+                parts.append(f"in {cost_name}, no variational integrator is cheaper than RATTLE at any accuracy "
+                             f"compared here")
+        headline = f"On {sres['system']}: " + "; ".join(parts) + "."
     return headline, table(["integrator", "cost measure", "against RATTLE (study.energy.crossover)"], rows)
 
 
@@ -200,8 +201,10 @@ def work_precision_section(sres):
         f"### {name}\n",
         f"![work-precision, {name}](work_precision_{name}.png)\n",
         "Stable runs of section 1 only (their commands are in the tables there). Cost curves are the Pareto "
-        "fronts of (cost, RMS fluctuation) points, interpolated linearly in log-log; the crossover is where "
-        "the candidate's curve meets RATTLE's.\n",
+        "fronts of (cost, RMS fluctuation) points, interpolated linearly in log-log. Each integrator is "
+        "compared with RATTLE over its own range of errors; where it is more accurate than RATTLE ever was, "
+        "RATTLE's cost is extrapolated with the power law fitted to its front (never the candidate's). "
+        "A crossing is where the two curves meet.\n",
         f"**Crossover:** {headline}\n", tab])
 
 
@@ -227,7 +230,8 @@ def order_section(order):
     for row in order["rows"]:
         first = row["runs"][0]
         if first["status"] == "not available":
-            rows.append([row["label"], row["order"], f"**{NOT_AVAILABLE}**: {first['message']}", "-"] + ["-"] * len(dts))
+            rows.append([row["label"], row["order"], f"**{NOT_AVAILABLE}**: {first['message']}", "-"]
+                        + ["-"] * len(dts))
         else:
             errs = dict(zip(row["dts"], row["errors"]))
             slope = num(row["slope"], 3) if row["slope"] is not None else "n/a (errors at the reference's level)"
@@ -333,7 +337,8 @@ def closing_note(scan, reference_dts):
                 r = match[0]
                 rows.append([r["label"], "stable" if r["status"] == "ok" else "**unstable**",
                              num(r["stats"]["drift_per_atom"]), num(r["stats"]["rms_fluctuation"]), code(r["command"])])
-        out.append(f"**{name}, dt = {fs(dt)} fs, {sres['ps']:g} ps NVE:**\n")
+        length = min(sres["ps"], sres["max_steps"] * dt)
+        out.append(f"**{name}, dt = {fs(dt)} fs, {length:g} ps NVE:**\n")
         out.append(table(["integrator", "status", "drift (kJ/mol/ps/atom)", "RMS fluct. (kJ/mol)", "command"], rows))
         headline, _ = crossover_block(sres)
         out.append(f"**Crossover ({name}):** {headline}\n")
@@ -362,8 +367,8 @@ def write(path, plan, meta, scan, order, long, md):
         "## Set-up and definitions\n",
         "- **Energy drift**: slope of a least-squares line through the total energy of the run, per atom "
         "(kJ/mol/ps/atom). **RMS fluctuation**: root mean square of the total energy about that line (kJ/mol). "
-        "Energies are sampled about every 10 fs. Both by study.energy.energy_statistics, the same code for vimd "
-        "(its `energy.csv`) and GROMACS (`gmx_d energy`).\n"
+        f"Energies are sampled about every {plan.energy_interval_ps * 1000:g} fs (or every step). Both by "
+        "study.energy.energy_statistics, the same code for vimd (its `energy.csv`) and GROMACS (`gmx_d energy`).\n"
         f"- **Stable**: the run finished and abs(E(t) - E(0)) stayed below {plan.stability_fraction:g} x the mean "
         "kinetic energy (about 3 K of temperature at 300 K). A run that stops with an error (non-convergence, "
         "constraint failure) is not stable; an integrator the engine rejects is marked "

@@ -7,12 +7,12 @@ import numpy as np
 from gmx_common import ROOT
 from . import energy, figures, trajectories
 from .plan import (GMX_VARIANTS, LONG_VARIANTS, RATTLE, SCAN_VARIANTS, SYSTEMS, fs, order_variants, relative, rk,
-                   vi)
+                   scan_length, vi)
 
 
-def energy_every(dt):
-    """Energy samples about every 10 fs, whatever the step."""
-    return max(1, int(round(0.010 / dt)))
+def energy_every(dt, interval):
+    """Energy samples about every `interval` ps, whatever the step."""
+    return max(1, int(round(interval / dt)))
 
 
 def series_of(run):
@@ -45,18 +45,19 @@ def scan(runner, plan, report_dir, log):
     results = {}
     for name in plan.scan_systems:
         system = SYSTEMS[name]
-        ps, dts, tag = plan.scan_ps[name], plan.scan_dts[name], f"scan-{name}"
+        dts, tag = plan.scan_dts[name], f"scan-{name}"
         series = {}
         for variant in SCAN_VARIANTS:
             log(f"[scan {name}] {variant.label}")
             series[variant.key] = _sweep(lambda dt: runner.vimd(
-                system, variant, dt, ps, tag, energy_every(dt), 0, tolerance=plan.constraint_tolerance,
-                stability_fraction=plan.stability_fraction), dts)
+                system, variant, dt, scan_length(plan, name, dt), tag, energy_every(dt, plan.energy_interval_ps), 0,
+                tolerance=plan.constraint_tolerance, stability_fraction=plan.stability_fraction), dts)
         if name == plan.gromacs_system:
             for gv in GMX_VARIANTS:
                 log(f"[scan {name}] {gv.label}")
                 series[gv.key] = _sweep(lambda dt: runner.gromacs(
-                    system, gv, dt, ps, tag, energy_every(dt), 0, stability_fraction=plan.stability_fraction), dts)
+                    system, gv, dt, scan_length(plan, name, dt), tag, energy_every(dt, plan.energy_interval_ps), 0,
+                    stability_fraction=plan.stability_fraction), dts)
         largest = {}
         for key, runs in series.items():
             best, first_bad = energy.largest_stable(runs)
@@ -71,7 +72,8 @@ def scan(runner, plan, report_dir, log):
         figures.scan(name, series, report_dir / f"scan_{name}.png")
         figures.work_precision(name, series, report_dir / f"work_precision_{name}.png")
         results[name] = {"system": name, "atoms": system.atoms, "forcefield": system.forcefield,
-                         "note": system.note, "ps": ps, "dts": list(dts), "series": series, "largest": largest,
+                         "note": system.note, "ps": plan.scan_ps[name],
+                         "max_steps": plan.scan_max_steps[name], "dts": list(dts), "series": series, "largest": largest,
                          "crossovers": crossovers}
     return results
 
@@ -169,7 +171,8 @@ def mdanalysis(long, report_dir, log):
         if "stats" not in r:
             continue
         out = ROOT / r["out"]
-        gro, trr = (out / "confout.gro", out / "traj.trr") if r["kind"] == "vimd" else (out / "gmx.gro", out / "gmx.trr")
+        names = ("confout.gro", "traj.trr") if r["kind"] == "vimd" else ("gmx.gro", "gmx.trr")
+        gro, trr = out / names[0], out / names[1]
         log(f"[MDAnalysis] {r['label']}: Universe({relative(gro)}, {relative(trr)})")
         try:
             u = trajectories.water_universe(gro, trr)
@@ -191,7 +194,8 @@ def mdanalysis(long, report_dir, log):
         results[key] = {"label": r["label"], "command": r["command"], "frames": len(u.trajectory),
                         "rdf_peak_r": peak_r, "rdf_peak_g": peak_g,
                         "dev_median": float(np.median(np.abs(dev))), "dev_max": float(np.max(np.abs(dev))),
-                        "engine_constraint_rms_max": float(np.max(s["constraint_rms"])) if "constraint_rms" in s else None,
+                        "engine_constraint_rms_max":
+                            float(np.max(s["constraint_rms"])) if "constraint_rms" in s else None,
                         "diffusion": diffusion, "msd_window": window, "temperature_mdanalysis": float(np.mean(temp)),
                         "temperature_engine": float(np.mean(s["temperature"])), "dof": dof}
     if reference_key in rdfs:
