@@ -132,7 +132,7 @@ def work_precision(system, series, path):
 
 def order(rows, reference_error, path):
     """Global position error at the final time against the step, in three panels."""
-    groups = [("constraint solvers and projected RK", lambda k: not k.startswith("vi-")),
+    groups = [("RATTLE, SHAKE, GROMACS and projected RK", lambda k: not k.startswith("vi-")),
               ("vi, bias [0,1]", lambda k: k.startswith("vi-") and k.endswith("b01")),
               ("vi, bias [-1/2,1/2]", lambda k: k.startswith("vi-") and k.endswith("bsym"))]
     fig, axes = plt.subplots(1, 3, figsize=(15, 5), sharey=True)

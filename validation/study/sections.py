@@ -111,15 +111,24 @@ def order(runner, plan, report_dir, log):
             reference = {"run": fine, "check": coarse, "label": candidate.label,
                          "error": float(np.max(np.linalg.norm(positions(coarse) - x_ref, axis=1)))}
             break
+    def gromacs_run(gv, dt, tag):
+        steps = int(round(horizon / dt))
+        return runner.gromacs(system, gv, dt, horizon, tag, max(1, steps // 50), steps,
+                              stability_fraction=plan.stability_fraction)
+
+    # vimd's methods, then GROMACS's two integrators with SETTLE as a cross-check of RATTLE and SHAKE
+    methods = [(v, v.order, lambda dt, v=v: run(v, dt, "order-cluster8")) for v in order_variants(plan.order_tableaus)]
+    methods += [(gv, 2, lambda dt, gv=gv: gromacs_run(gv, dt, "order-cluster8")) for gv in GMX_VARIANTS]
     rows = []
-    for variant in order_variants(plan.order_tableaus):
+    for variant, nominal, run_at in methods:
         log(f"[order] {variant.label}")
         runs, errors = [], []
         for dt in plan.order_dts:
-            r = run(variant, dt, "order-cluster8")
+            r = run_at(dt)
             runs.append(r)
             if reference is not None and "stats" in r:
-                r["positions_command"] = (f"gmx_d traj -f {r['out']}/traj.trr -s "
+                trajectory = "traj.trr" if r["kind"] == "vimd" else "gmx.trr"
+                r["positions_command"] = (f"gmx_d traj -f {r['out']}/{trajectory} -s "
                                           f"{relative(system.structure)} -ox x.xvg -fp -nopbc "
                                           f"-b {r['steps'] * r['dt']:g} -e {r['steps'] * r['dt']:g}")
                 errors.append(float(np.max(np.linalg.norm(positions(r) - x_ref, axis=1))))
@@ -129,7 +138,7 @@ def order(runner, plan, report_dir, log):
                 break
         slope, used, local = energy.fit_order([r["dt"] for r in runs], errors,
                                               reference["error"] if reference else 0.0)
-        rows.append({"variant": variant.key, "label": variant.label, "order": variant.order,
+        rows.append({"variant": variant.key, "label": variant.label, "order": nominal,
                      "dts": [r["dt"] for r in runs], "errors": errors, "runs": runs, "slope": slope,
                      "fit_dts": [p[0] for p in used], "local_slopes": local})
     figures.order(rows, reference["error"] if reference else None, report_dir / "order_cluster8.png")
