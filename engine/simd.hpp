@@ -2,8 +2,9 @@
 // Eight doubles as one value, for the pair loops: GCC/Clang vector extensions, which the compiler
 // maps onto AVX-512, AVX2 or SSE registers (or scalar code elsewhere), so the force-field kernels
 // (forcefields/lennard_jones.hpp, reaction_field.hpp) are written once and instantiated for double
-// (reference sums, tests) and for SimdDouble (pair loop). Only the square root needs per-ISA code:
-// the portable std::sqrt keeps errno semantics and GCC does not vectorise it.
+// (reference sums, tests) and for SimdDouble (pair loop). Only the square root and the mask-to-bits
+// conversion have per-ISA code (std::sqrt keeps errno semantics and GCC does not vectorise it; the
+// portable bit gathering takes a few more instructions).
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -34,11 +35,21 @@ inline SimdDouble select(SimdMask m, SimdDouble a, SimdDouble b) { return m ? a 
 
 // Bit k set where lane k of m is true.
 inline unsigned simd_bits(SimdMask m) {
+#if defined(__AVX512DQ__)
+  __m512i v;
+  std::memcpy(&v, &m, sizeof v);
+  return _mm512_movepi64_mask(v);
+#elif defined(__AVX__)
+  __m256d v[2];
+  std::memcpy(v, &m, sizeof v);
+  return static_cast<unsigned>(_mm256_movemask_pd(v[0]) | (_mm256_movemask_pd(v[1]) << 4));
+#else
   typedef std::uint8_t Bytes __attribute__((vector_size(kSimdWidth)));
   const Bytes bytes = __builtin_convertvector(m, Bytes) & 1;
   std::uint64_t word;
   std::memcpy(&word, &bytes, sizeof word);
   return static_cast<unsigned>((word * 0x0102040810204080ull) >> 56);  // byte k (0 or 1) → bit 56 + k
+#endif
 }
 
 inline SimdDouble simd_sqrt(SimdDouble x) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 #include "engine/errors.hpp"
@@ -50,9 +51,11 @@ struct HalfData {
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
 // on the thread count (the Coulomb sum cancels strongly and would otherwise show it).
+// If inside_masks is not null, inside_masks[e] receives the bits of entry e's pairs that were
+// inside the cut-off.
 template <VdwModifier M, bool kCoulomb>
 void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
-                  double* half_coulomb) {
+                  double* half_coulomb, std::uint32_t* inside_masks) {
   const SimdDouble one = simd_broadcast(1.0), zero{};
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -78,12 +81,14 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
                        zj = simd_load(d.z + jb) + shift[2];
       const SimdDouble qj = simd_load(d.charge + jb);
       SimdDouble fxj = zero, fyj = zero, fzj = zero;
+      std::uint32_t inside_bits = 0;
       for (int ii = 0; ii < kH; ++ii) {
         const unsigned bits = (entry.mask >> (ii * kC)) & 0xffu;
         if (bits == 0) continue;
         const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
         const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
         const SimdMask inside = lanes_inside(bits, r2, d.cutoff2);
+        if (inside_masks) inside_bits |= simd_bits(inside) << (ii * kC);
         const SimdDouble r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
         const SimdDouble rinv = 1.0 / simd_sqrt(r2s);
         const SimdDouble rinv2 = rinv * rinv;
@@ -108,6 +113,7 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
       simd_store(fx + jb, simd_load(fx + jb) + fxj);
       simd_store(fy + jb, simd_load(fy + jb) + fyj);
       simd_store(fz + jb, simd_load(fz + jb) + fzj);
+      if (inside_masks) inside_masks[e] = inside_bits;
     }
     for (int ii = 0; ii < kH; ++ii) {
       fx[ib + ii] += simd_sum(fxi[ii]);
@@ -120,9 +126,12 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
 }
 
 // (∇²V u) of the i-halves [h0, h1) into the SoA buffer (ox, oy, oz): per pair a u_ij + b (d·u_ij) d.
+// masks[e] selects the pairs of entry e: the list's own masks, or the inside-cut-off masks that a
+// force evaluation at the same positions recorded (rows without such pairs are then skipped; the
+// skipped rows contribute exact zeros otherwise, so both give identical results).
 template <VdwModifier M, bool kCoulomb>
-void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, int h0, int h1,
-                    double* ox, double* oy, double* oz) {
+void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz,
+                    const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz) {
   const SimdDouble one = simd_broadcast(1.0), zero{};
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -152,7 +161,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
       const SimdDouble qj = simd_load(d.charge + jb);
       SimdDouble oxj = zero, oyj = zero, ozj = zero;
       for (int ii = 0; ii < kH; ++ii) {
-        const unsigned bits = (entry.mask >> (ii * kC)) & 0xffu;
+        const unsigned bits = (masks[e] >> (ii * kC)) & 0xffu;
         if (bits == 0) continue;
         const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
         const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
@@ -348,7 +357,7 @@ void NonbondedPairTerm::run_parallel(Kernel&& kernel, Coords& out) {
 namespace {
 
 template <bool kCoulomb>
-using ForceKernelFn = void (*)(const PairView&, int, int, double*, double*, double*, double*, double*);
+using ForceKernelFn = void (*)(const PairView&, int, int, double*, double*, double*, double*, double*, std::uint32_t*);
 
 template <bool kCoulomb>
 ForceKernelFn<kCoulomb> force_kernel(VdwModifier m) {
@@ -361,8 +370,8 @@ ForceKernelFn<kCoulomb> force_kernel(VdwModifier m) {
   throw std::logic_error("unknown VdwModifier");
 }
 
-using HessianKernelFn = void (*)(const PairView&, const double*, const double*, const double*, int, int, double*,
-                                 double*, double*);
+using HessianKernelFn = void (*)(const PairView&, const double*, const double*, const double*, const std::uint32_t*,
+                                 int, int, double*, double*, double*);
 
 template <bool kCoulomb>
 HessianKernelFn hessian_kernel(VdwModifier m) {
@@ -396,10 +405,11 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   double* half_lj = partial_energies_.data();
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
+  std::uint32_t* inside_masks = hessian_requested_ ? record_inside_masks(q).data() : nullptr;
   run_parallel(
       [&](int t, int nt, double* fx, double* fy, double* fz) {
         const auto [h0, h1] = half_block(half_start, t, nt);
-        pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb);
+        pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
         for (int b = t; b < n_blocks; b += nt)
           block_coulomb[b] = excluded_forces(view, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
       },
@@ -413,6 +423,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
 }
 
 void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+  hessian_requested_ = true;
   prepare(q);
   list_.pack_positions(q, x_.data(), y_.data(), z_.data());
   list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
@@ -424,15 +435,55 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
+  const std::uint32_t* masks = find_inside_masks(q);
+  if (masks) {
+    ++hessian_cache_hits_;
+  } else {
+    list_masks_.resize(list_.entries().size());
+    for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = list_.entries()[e].mask;
+    masks = list_masks_.data();
+  }
   run_parallel(
       [&](int t, int nt, double* ox, double* oy, double* oz) {
         const auto [h0, h1] = half_block(half_start, t, nt);
-        pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), h0, h1, ox, oy, oz);
+        pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);
         for (int b = t; b < n_blocks; b += nt)
           excluded_hessian(view, ux_.data(), uy_.data(), uz_.data(), b * kExcludedBlock,
                            std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
       },
       out);
+}
+
+std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords& q) {
+  InsideMasks* slot = nullptr;
+  for (auto& c : inside_cache_)
+    if (c.build == list_.builds() && same_positions(c.q, q)) slot = &c;
+  if (!slot) {
+    if (inside_cache_.size() < kHessianCacheSlots) {
+      slot = &inside_cache_.emplace_back();
+    } else {
+      slot = &*std::min_element(inside_cache_.begin(), inside_cache_.end(),
+                                [](const InsideMasks& a, const InsideMasks& b) { return a.last_used < b.last_used; });
+    }
+    slot->build = list_.builds();
+    slot->q = q;
+  }
+  slot->last_used = ++cache_clock_;
+  slot->masks.resize(list_.entries().size());
+  return slot->masks;
+}
+
+const std::uint32_t* NonbondedPairTerm::find_inside_masks(const Coords& q) {
+  for (auto& c : inside_cache_)
+    if (c.build == list_.builds() && same_positions(c.q, q)) {
+      c.last_used = ++cache_clock_;
+      return c.masks.data();
+    }
+  return nullptr;
+}
+
+bool NonbondedPairTerm::same_positions(const Coords& a, const Coords& b) {
+  return a.cols() == b.cols() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
 }
 
 }  // namespace vimd

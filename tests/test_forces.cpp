@@ -239,6 +239,37 @@ INSTANTIATE_TEST_SUITE_P(
       return name;
     });
 
+// The Hessian–vector pass reuses the cut-off masks of a force evaluation at bitwise the same
+// positions; it must give exactly what the full pass gives, and only at those positions.
+TEST(NonbondedPairTerm, HessianReuseOfForcePassIsExact) {
+  auto [system, q] = testing::water_like_system(200, Vec3(2.5, 2.5, 2.5), 9);
+  const auto config = testing::pair_config("potential-switch", "reaction-field", 78.0);
+  const Coords u = random_direction(system.n_atoms(), 4);
+  NonbondedPairTerm fresh(system, config), reused(system, config);
+  const Coords reference = hessian_vector(fresh, q, u);  // no force evaluation: full pass
+  EXPECT_EQ(fresh.hessian_cache_hits(), 0);
+  hessian_vector(reused, q, u);  // asks for Hessians: from now on force passes record masks
+  evaluate(reused, q);
+  const Coords again = hessian_vector(reused, q, u);
+  EXPECT_EQ(reused.hessian_cache_hits(), 1);
+  EXPECT_EQ((again - reference).cwiseAbs().maxCoeff(), 0.0);
+  // Other positions (here: moved by 1e-9 nm, no rebuild) must not use those masks.
+  Coords moved = q;
+  moved(0, 0) += 1e-9;
+  const Coords at_moved = hessian_vector(reused, moved, u);
+  EXPECT_EQ(reused.hessian_cache_hits(), 1);
+  EXPECT_LT(relative_difference(at_moved, hessian_vector(fresh, moved, u)), 1e-15);
+  // Several stage positions in a row, then their products in reverse order (as an RK reverse pass).
+  std::vector<Coords> stages;
+  for (int k = 0; k < 5; ++k) {
+    stages.push_back(q + 1e-3 * k * u);
+    evaluate(reused, stages.back());
+  }
+  for (int k = 4; k >= 0; --k)
+    EXPECT_EQ((hessian_vector(reused, stages[k], u) - hessian_vector(fresh, stages[k], u)).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(reused.hessian_cache_hits(), 6);
+}
+
 TEST(HarmonicBondTerm, DerivativesMatchFiniteDifferences) {
   auto [system, q] = testing::water_like_system(6, Vec3(2.0, 2.0, 2.0), 21);
   // Molecules straddling the box edge exercise the minimum image.
