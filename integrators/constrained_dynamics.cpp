@@ -46,7 +46,8 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
 }
 
-void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar) {
+void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
+                                  Coords* deferred_hvp) {
   const int n = n_atoms();
   const Eigen::VectorXd& w = inverse_mass();
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
@@ -60,9 +61,14 @@ void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_ba
     coefficients_ = -z_;
     c.add_GT(point.q, coefficients_, u_tangent_, w);
   }
-  problem_.force_field.hessian_vector(point.q, u_tangent_, hessian_u_);
+  if (deferred_hvp) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
+    for (int i = 0; i < n; ++i) deferred_hvp->col(i) += u_tangent_.col(i);
+  } else {
+    problem_.force_field.hessian_vector(point.q, u_tangent_, hessian_u_);
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
+    for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
+  }
   if (!c.empty()) {
     c.add_H(point.lambda, u_tangent_, q_bar);
     c.add_H(coefficients_, point.a, q_bar);

@@ -28,7 +28,10 @@ class ConstrainedDynamics {
 
   // q_bar += ā·∂A/∂q and v_bar += ā·∂A/∂v at `point`: with u = M⁻¹ā, z = S⁻¹Gu, ũ = u − M⁻¹Gᵀz,
   //   ā·∂A/∂q = −∇²V ũ + Σ_a (λ_a H_a ũ − z_a H_a A),   ā·∂A/∂v = −2 Σ_a z_a H_a v.
-  void add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar);
+  // With `deferred_hvp` given, the −∇²V ũ term is left out and ũ is added to *deferred_hvp instead,
+  // so that several VJPs at the same q can share one Hessian–vector product (∇²V is linear in ũ).
+  void add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
+               Coords* deferred_hvp = nullptr);
 
   Problem& problem() { return problem_; }
   const Constraints& constraints() const { return problem_.constraints; }

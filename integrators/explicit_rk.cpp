@@ -56,7 +56,8 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
 }
 
 void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, const Coords& q_seed,
-                             const Coords* v_seed, double s_seed, Coords& q_bar, Coords& v_bar) {
+                             const Coords* v_seed, double s_seed, Coords& q_bar, Coords& v_bar,
+                             Coords* start_hvp) {
   const int s = stages();
   const int n = static_cast<int>(q_seed.cols());
   const double tau = seg.tau;
@@ -95,7 +96,8 @@ void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, 
       yq.col(i) = ks * stage.forces.f.col(i);
       yv.col(i) = tau * kq + ks * mass[i] * stage.v.col(i);
     }
-    if (v_reached) dynamics.add_vjp(stage, k_v_bar_, yq, yv);
+    // Stage 0 sits at the segment's start (a_0j = 0): its product may be deferred.
+    if (v_reached) dynamics.add_vjp(stage, k_v_bar_, yq, yv, k == 0 ? start_hvp : nullptr);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) {
       q_bar.col(i) += yq.col(i);

@@ -31,9 +31,11 @@ class OneStepMethod {
   virtual void forward(ConstrainedDynamics& dynamics, const Coords& q, const Coords& v, double tau, Segment& seg,
                        const Forces* forces_at_q = nullptr) = 0;
   // (q_bar, v_bar) = (Q̄, V̄, S̄)·DΦ_τ at the segment's start; V̄ = 0 when v_seed is null.
-  // Overwrites q_bar and v_bar.
+  // Overwrites q_bar and v_bar. With `start_hvp` given, the Hessian–vector product at the start
+  // point is deferred: its direction is added to *start_hvp and −∇²V(q₀)·(*start_hvp) is left for
+  // the caller to subtract from q_bar (one product for several segments starting at q₀).
   virtual void vjp(ConstrainedDynamics& dynamics, const Segment& seg, const Coords& q_seed, const Coords* v_seed,
-                   double s_seed, Coords& q_bar, Coords& v_bar) = 0;
+                   double s_seed, Coords& q_bar, Coords& v_bar, Coords* start_hvp = nullptr) = 0;
 };
 
 class ExplicitRungeKutta : public OneStepMethod {
@@ -50,7 +52,7 @@ class ExplicitRungeKutta : public OneStepMethod {
   // with Ȳ_q = k̄_v·∂A/∂q + k̄_S f and Ȳ_v = k̄_q + k̄_v·∂A/∂v + k̄_S M v. A stage whose k̄_v is
   // structurally zero (the last one when V̄ = 0) costs no Hessian–vector product.
   void vjp(ConstrainedDynamics& dynamics, const Segment& seg, const Coords& q_seed, const Coords* v_seed,
-           double s_seed, Coords& q_bar, Coords& v_bar) override;
+           double s_seed, Coords& q_bar, Coords& v_bar, Coords* start_hvp = nullptr) override;
 
  private:
   ButcherTableau tableau_;

@@ -72,7 +72,7 @@ struct VariationalIntegrator::Work {
   Coords q_standard, v_standard;  // this step's standard-layer prediction
   Coords q_offset, v_offset;      // last step's solution minus its standard-layer prediction
   Coords rho_q, rho_v, minus_q, minus_v, p_hat;
-  Coords dq, dv, dp, trial, v_trial;
+  Coords dq, dv, dp, trial, v_trial, start_direction;
   Eigen::VectorXd nu;
   // Anderson history: per atom (q/h, v, M⁻¹p) and the fixed-point residual in the same scaling.
   std::vector<Eigen::Matrix<double, 9, Eigen::Dynamic>> history_x, history_f;
@@ -90,7 +90,7 @@ struct VariationalIntegrator::Work {
         mass_q(p.constraints, p.inverse_mass) {
     const int n = static_cast<int>(p.inverse_mass.size());
     for (Coords* c : {&q, &v, &p_plus, &qbar, &pbar, &p_offset, &rho_q, &rho_v, &minus_q, &minus_v, &p_hat, &dq, &dv,
-                      &dp, &trial, &v_trial, &q_standard, &v_standard, &q_offset, &v_offset})
+                      &dp, &trial, &v_trial, &start_direction, &q_standard, &v_standard, &q_offset, &v_offset})
       c->setZero(3, n);
     history_x.assign(s.anderson_depth > 0 ? s.anderson_depth + 1 : 0, Eigen::Matrix<double, 9, Eigen::Dynamic>(9, n));
     history_f = history_x;
@@ -123,9 +123,10 @@ VariationalIntegrator::Work& VariationalIntegrator::work(Problem& problem, const
   return *work_;
 }
 
-void VariationalIntegrator::forward_segments(Work& w, const Coords& q, const Coords& v, long step) {
+void VariationalIntegrator::forward_segments(Work& w, const Coords& q, const Coords& v, long step,
+                                             const Forces* forces_at_q) {
   const double h = settings_.dt;
-  w.plus.forward(w.dynamics, q, v, h * settings_.alpha_plus, w.seg_plus);
+  w.plus.forward(w.dynamics, q, v, h * settings_.alpha_plus, w.seg_plus, forces_at_q);
   w.projection.project(w.seg_plus.q, w.proj_plus, step);
   if (settings_.alpha_minus != 0) {
     // Both segments start at w: the first stage's forces are shared.
@@ -141,15 +142,19 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
   const int n = static_cast<int>(q.cols());
   w.projection.pull_back(w.proj_plus, p_plus, w.p_hat, step);
   w.p_hat = -w.p_hat;
-  w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v);
   if (settings_.alpha_minus != 0) {
+    // Both segments start at q: one Hessian–vector product there serves both reverse passes.
+    w.start_direction.setZero();
+    w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v, &w.start_direction);
     w.projection.pull_back(w.proj_minus, p_minus, w.p_hat, step);
-    w.minus.vjp(w.dynamics, w.seg_minus, w.p_hat, nullptr, -1.0, w.minus_q, w.minus_v);
+    w.minus.vjp(w.dynamics, w.seg_minus, w.p_hat, nullptr, -1.0, w.minus_q, w.minus_v, &w.start_direction);
+    w.problem->force_field.hessian_vector(q, w.start_direction, w.p_hat);
     for_each_atom(n, [&](int i) {
-      w.rho_q.col(i) += w.minus_q.col(i);
+      w.rho_q.col(i) += w.minus_q.col(i) - w.p_hat.col(i);
       w.rho_v.col(i) += w.minus_v.col(i);
     });
   } else {
+    w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v);
     w.rho_q += p_minus;
   }
   const Constraints& c = w.problem->constraints;
@@ -266,9 +271,15 @@ void VariationalIntegrator::update(Work& w, int iteration, long step) {
   const Eigen::VectorXd& inverse_mass = w.problem->inverse_mass;
   // The plain update: q ← P(q + δq), v ← M-orthogonal projection of v + δv at the new q, p⁺ ← p⁺ + δp.
   auto settle = [&](Coords& q_trial, Coords& v_trial) {
-    w.projection.project(q_trial, w.proj_q, step);
-    q_trial = w.proj_q.x;
-    w.mass_q.set_point(q_trial);
+    if (settings_.alpha_minus == 0) {
+      // ∂⁻(w) = q: the position equation holds exactly with q = q̄ (and the tangent projector
+      // is already there), so the forces at q stay valid through the iteration.
+      q_trial = w.qbar;
+    } else {
+      w.projection.project(q_trial, w.proj_q, step);
+      q_trial = w.proj_q.x;
+      w.mass_q.set_point(q_trial);
+    }
     w.mass_q.apply(v_trial);
   };
   w.trial = w.q + w.dq;
@@ -347,7 +358,8 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   int it = 0;
   for (;;) {
     ++it;
-    forward_segments(w, w.q, w.v, step);
+    // With α⁻ = 0, q = q̄ throughout the step: the first stage's forces are computed once.
+    forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 && it > 1 ? &w.seg_plus.stages[0].forces : nullptr);
     if (it == 1) {
       for_each_atom(n, [&](int i) {
         w.p_plus.col(i) = mass[i] * w.seg_plus.v.col(i);

@@ -59,7 +59,7 @@ class VariationalIntegrator : public Integrator {
  private:
   struct Work;
   Work& work(Problem& problem, const char* caller);
-  void forward_segments(Work& w, const Coords& q, const Coords& v, long step);
+  void forward_segments(Work& w, const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr);
   void residual(Work& w, const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step);
   void predict(Work& w, const State& state, long step);
   void update(Work& w, int iteration, long step);

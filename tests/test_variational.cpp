@@ -409,6 +409,31 @@ TEST(Anderson, SameSolutionAsPlainIteration) {
   }
 }
 
+// ---------------------------------------------------------------- cost accounting
+TEST(Cost, EvaluationsPerIteration) {
+  // rk4, bias [0, 1]: q = q̄ all step, so the first stage's forces are computed once per step;
+  // each iteration then costs 3 force evaluations and 3 Hessian–vector products (the last stage
+  // needs none). Bias [−½, ½]: the predictor Φ_h shares its first stage with the accepted
+  // segments (3 evaluations); per iteration 4 + 3 evaluations and 3 + 3 − 1 products (the two
+  // segments' start points share one).
+  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+    ViRun run("two_dimers", make_settings("rk4", "rk4", 0.02, am, ap, "euclidean", 1e-10));
+    ForceField& ff = run.engine->force_field;
+    for (int k = 0; k < 5; ++k) {
+      const long f0 = ff.force_evaluations(), h0 = ff.hessian_evaluations();
+      const int it = run.step().iterations;
+      const long forces = ff.force_evaluations() - f0, products = ff.hessian_evaluations() - h0;
+      if (am == 0) {
+        EXPECT_EQ(forces, 1 + 3 * it);
+        EXPECT_EQ(products, 3 * it);
+      } else {
+        EXPECT_EQ(forces, 3 + 7 * it);
+        EXPECT_EQ(products, 5 * it);
+      }
+    }
+  }
+}
+
 // ---------------------------------------------------------------- the projected RK baseline ("rk")
 TEST(ProjectedRungeKutta, OrderOfTheMethodAndConstraintsKept) {
   const double T = 1.0;
