@@ -180,35 +180,53 @@ void NeighborList::bin_atoms(const Coords& q) {
     cluster_occupancy_[s / kCluster] |= kLaneBit[s % kCluster];
     for (int k = 0; k < 3; ++k) slot_wrapped_[k][s] = wrapped_(k, a);
   }
-  // Exclusions in slot indices, contiguous per slot, for the mask computation.
-  excluded_start_.assign(n_slots() + 1, 0);
-  excluded_slot_.clear();
-  for (int s = 0; s < n_slots(); ++s) {
-    const int a = slot_atom_[s];
-    if (a >= 0 && !exclusions_.empty())
-      for (int p : exclusions_[a])
-        if (p != a) excluded_slot_.push_back(atom_slot_[p]);
-    excluded_start_[s + 1] = static_cast<int>(excluded_slot_.size());
+  // Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half
+  // has its partners in one or two clusters), so that a mask needs only a few comparisons.
+  half_rows_.assign(n_halves(), 0u);
+  half_exclusion_start_.assign(n_halves() + 1, 0);
+  half_exclusions_.clear();
+  for (int h = 0; h < n_halves(); ++h) {
+    for (int ii = 0; ii < kHalf; ++ii) {
+      const int a = slot_atom_[h * kHalf + ii];
+      if (a < 0) continue;
+      half_rows_[h] |= 0xffu << (ii * kCluster);
+      if (exclusions_.empty()) continue;
+      for (int p : exclusions_[a]) {
+        if (p == a) continue;
+        const int ps = atom_slot_[p];
+        const std::uint32_t bit = 1u << (ii * kCluster + ps % kCluster);
+        auto it = std::find_if(half_exclusions_.begin() + half_exclusion_start_[h], half_exclusions_.end(),
+                               [&](const ClusterBits& c) { return c.j_cluster == ps / kCluster; });
+        if (it == half_exclusions_.end())
+          half_exclusions_.push_back({ps / kCluster, bit});
+        else
+          it->mask |= bit;
+      }
+    }
+    half_exclusion_start_[h + 1] = static_cast<int>(half_exclusions_.size());
   }
 }
 
 void NeighborList::compute_bounds() {
-  const Bounds empty{Vec3::Constant(INFINITY), Vec3::Constant(-INFINITY)};
-  cluster_bounds_.assign(n_clusters_, empty);
-  half_bounds_.assign(2 * n_clusters_, empty);
-#pragma omp parallel for schedule(static)
-  for (int s = 0; s < n_slots(); s += kHalf) {
-    Bounds& half = half_bounds_[s / kHalf];
-    for (int k = s; k < s + kHalf; ++k) {
-      const int a = slot_atom_[k];
-      if (a < 0) continue;
-      half.lo = half.lo.cwiseMin(wrapped_.col(a));
-      half.hi = half.hi.cwiseMax(wrapped_.col(a));
-    }
+  for (int k = 0; k < 3; ++k) {  // padded by one vector of empty boxes for the SIMD search
+    cluster_lo_[k].assign(n_clusters_ + kSimdWidth, INFINITY);
+    cluster_hi_[k].assign(n_clusters_ + kSimdWidth, -INFINITY);
   }
+  cluster_bounds_.resize(n_clusters_);
+#pragma omp parallel for schedule(static)
   for (int c = 0; c < n_clusters_; ++c) {
-    cluster_bounds_[c].lo = half_bounds_[2 * c].lo.cwiseMin(half_bounds_[2 * c + 1].lo);
-    cluster_bounds_[c].hi = half_bounds_[2 * c].hi.cwiseMax(half_bounds_[2 * c + 1].hi);
+    Bounds b{Vec3::Constant(INFINITY), Vec3::Constant(-INFINITY)};
+    for (int s = c * kCluster; s < (c + 1) * kCluster; ++s) {
+      const int a = slot_atom_[s];
+      if (a < 0) continue;
+      b.lo = b.lo.cwiseMin(wrapped_.col(a));
+      b.hi = b.hi.cwiseMax(wrapped_.col(a));
+    }
+    cluster_bounds_[c] = b;
+    for (int k = 0; k < 3; ++k) {
+      cluster_lo_[k][c] = b.lo[k];
+      cluster_hi_[k][c] = b.hi[k];
+    }
   }
 }
 
@@ -229,39 +247,20 @@ std::uint32_t NeighborList::pair_mask(int i_half, int j_cluster, int shift_index
                      dz = (z[i_first + ii] - shift[2]) - zj;
     mask |= simd_bits(dx * dx + dy * dy + dz * dz < range2) << (ii * kCluster);
   }
-  const unsigned occupied = cluster_occupancy_[j_cluster];
-  const int i_in_cluster = (i_half % 2) * kHalf;
-  for (int ii = 0; ii < kHalf; ++ii) {
-    unsigned allowed = slot_atom_[i_first + ii] < 0 ? 0u : occupied;
-    if (j_cluster == i_half / 2) {
-      const int self = i_in_cluster + ii;
-      if (shift_index == zero_shift_)
-        allowed &= ~((2u << self) - 1);  // each pair inside a cluster once: only j > i
-      else
-        allowed &= ~(1u << self);  // never an atom with its own image
-    }
-    for (int k = excluded_start_[i_first + ii]; k < excluded_start_[i_first + ii + 1]; ++k) {
-      const int ps = excluded_slot_[k];
-      if (ps / kCluster == j_cluster) allowed &= ~(1u << (ps % kCluster));
-    }
-    mask &= ~(0xffu << (ii * kCluster)) | (allowed << (ii * kCluster));
+  // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
+  // its own image.
+  constexpr std::uint32_t kRowsOf = 0x01010101u;  // one byte per i row
+  mask &= (cluster_occupancy_[j_cluster] * kRowsOf) & half_rows_[i_half];
+  if (j_cluster == i_half / 2) {
+    // Bit (ii, jj) of i-half hh is the pair of cluster slots (4 hh + ii, jj).
+    static constexpr std::uint32_t kAbove[2] = {0xf0f8fcfeu, 0x0080c0e0u};  // jj > 4 hh + ii
+    static constexpr std::uint32_t kOffDiagonal[2] = {0xf7fbfdfeu, 0x7fbfdfefu};  // jj != 4 hh + ii
+    mask &= shift_index == zero_shift_ ? kAbove[i_half % 2] : kOffDiagonal[i_half % 2];
   }
+  for (int k = half_exclusion_start_[i_half]; k < half_exclusion_start_[i_half + 1]; ++k)
+    if (half_exclusions_[k].j_cluster == j_cluster) mask &= ~half_exclusions_[k].mask;
   return mask;
 }
-
-namespace {
-
-double box_distance2(const Vec3& ilo, const Vec3& ihi, const Vec3& jlo, const Vec3& jhi, const Vec3& shift) {
-  double d2 = 0;
-  for (int k = 0; k < 3; ++k) {
-    const double above = jlo[k] + shift[k] - ihi[k], below = ilo[k] - jhi[k] - shift[k];
-    const double gap = above > 0 ? above : (below > 0 ? below : 0.0);
-    d2 += gap * gap;
-  }
-  return d2;
-}
-
-}  // namespace
 
 void NeighborList::search_pairs() {
   const double list_range = cutoff_ + skin_;
@@ -300,37 +299,35 @@ void NeighborList::search_pairs() {
         }
         if (empty) continue;
         const bool positive = is_positive_image(shift_images_[si]);
-        // Clusters of a column are sorted by z: only a window of them can be in range.
-        const double z_lo = ba.lo[2] - list_range - shift[2], z_hi = ba.hi[2] + list_range - shift[2];
-        for (int cx = c_lo[0]; cx <= c_hi[0]; ++cx)
+        // Clusters are numbered column by column, so clusters b ≥ a_cluster live in columns from
+        // a_cluster's own column on.
+        const int a_column = static_cast<int>(
+            std::upper_bound(column_cluster_start_.begin(), column_cluster_start_.end(), a_cluster) -
+            column_cluster_start_.begin() - 1);
+        for (int cx = std::max(c_lo[0], a_column / n_columns_[1]); cx <= c_hi[0]; ++cx)
           for (int cy = c_lo[1]; cy <= c_hi[1]; ++cy) {
-            // Skip the corners of the square of columns that lie outside the range in x-y.
-            double column_gap2 = 0;
-            for (int k = 0; k < 2; ++k) {
-              const double lo = grid_lo_[k] + (k == 0 ? cx : cy) * column_width_[k] + shift[k];
-              const double gap = std::max({0.0, lo - ba.hi[k], ba.lo[k] - lo - column_width_[k]});
-              column_gap2 += gap * gap;
-            }
-            if (column_gap2 >= range2) continue;
             const int column = cx * n_columns_[1] + cy;
             const int column_end = column_cluster_start_[column + 1];
-            const int window_start = static_cast<int>(
-                std::partition_point(cluster_bounds_.begin() + column_cluster_start_[column],
-                                     cluster_bounds_.begin() + column_end, [&](const Bounds& b) { return b.hi[2] < z_lo; }) -
-                cluster_bounds_.begin());
-            for (int b = std::max(a_cluster, window_start); b < column_end; ++b) {
-              const Bounds& bj = cluster_bounds_[b];
-              if (bj.lo[2] > z_hi) break;
-              // The half list keeps a cluster's own images for one of ±shift only.
-              if (b == a_cluster && si != zero_shift_ && !positive) continue;
-              if (box_distance2(ba.lo, ba.hi, bj.lo, bj.hi, shift) >= range2) continue;
-              for (int hh = 0; hh < 2; ++hh) {
-                const int h = 2 * a_cluster + hh;
-                const Bounds& bh = half_bounds_[h];
-                if (bh.lo[0] > bh.hi[0]) continue;  // all padding
-                if (box_distance2(bh.lo, bh.hi, bj.lo, bj.hi, shift) >= range2) continue;
-                const std::uint32_t mask = pair_mask(h, b, si);
-                if (mask != 0) found[hh].push_back({b, si, mask});
+            if (column_end <= a_cluster) continue;
+            // Bounding-box distances of 8 clusters of the column at once.
+            for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kSimdWidth) {
+              SimdDouble d2{};
+              for (int k = 0; k < 3; ++k) {
+                const SimdDouble above = (simd_load(cluster_lo_[k].data() + b0) + shift[k]) - ba.hi[k];
+                const SimdDouble below = ba.lo[k] - (simd_load(cluster_hi_[k].data() + b0) + shift[k]);
+                const SimdDouble gap = positive_part(select(above > below, above, below));
+                d2 += gap * gap;
+              }
+              unsigned candidates = simd_bits(d2 < range2);
+              if (column_end - b0 < kSimdWidth) candidates &= (1u << (column_end - b0)) - 1;
+              for (; candidates; candidates &= candidates - 1) {
+                const int b = b0 + __builtin_ctz(candidates);
+                // The half list keeps a cluster's own images for one of ±shift only.
+                if (b == a_cluster && si != zero_shift_ && !positive) continue;
+                for (int hh = 0; hh < 2; ++hh) {
+                  const std::uint32_t mask = pair_mask(2 * a_cluster + hh, b, si);
+                  if (mask != 0) found[hh].push_back({b, si, mask});
+                }
               }
             }
           }

@@ -82,6 +82,7 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
       const SimdDouble qj = simd_load(d.charge + jb);
       SimdDouble fxj = zero, fyj = zero, fzj = zero;
       std::uint32_t inside_bits = 0;
+#pragma GCC unroll 4  // keeps the i sums in registers
       for (int ii = 0; ii < kH; ++ii) {
         const unsigned bits = (entry.mask >> (ii * kC)) & 0xffu;
         if (bits == 0) continue;
@@ -160,6 +161,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
       const SimdDouble uxj = simd_load(ux + jb), uyj = simd_load(uy + jb), uzj = simd_load(uz + jb);
       const SimdDouble qj = simd_load(d.charge + jb);
       SimdDouble oxj = zero, oyj = zero, ozj = zero;
+#pragma GCC unroll 4  // keeps the i sums in registers
       for (int ii = 0; ii < kH; ++ii) {
         const unsigned bits = (masks[e] >> (ii * kC)) & 0xffu;
         if (bits == 0) continue;
