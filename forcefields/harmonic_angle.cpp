@@ -45,30 +45,29 @@ T angle_energy_gradient(const T a[3], const T b[3], double k, double theta0, T g
 
 }  // namespace
 
-// The angle lists are O(N) and tiny next to the pair loop, so these loops run serially.
-
 HarmonicAngleTerm::HarmonicAngleTerm(std::vector<Angle> angles, const Box& box)
     : angles_(std::move(angles)), box_(box) {}
 
 void HarmonicAngleTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
-  double energy = 0;
-  for (const Angle& t : angles_) {
+  energies[0] += loop_.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
+    const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));
     const Vec3 vb = box_.minimum_image(q.col(t.k) - q.col(t.j));
     const double a[3] = {va[0], va[1], va[2]}, b[3] = {vb[0], vb[1], vb[2]};
     double ga[3], gb[3];
-    energy += angle_energy_gradient(a, b, t.force_constant, t.theta0, ga, gb);
+    const double energy = angle_energy_gradient(a, b, t.force_constant, t.theta0, ga, gb);
     for (int m = 0; m < 3; ++m) {
-      f(m, t.i) -= ga[m];
-      f(m, t.k) -= gb[m];
-      f(m, t.j) += ga[m] + gb[m];
+      out(m, t.i) -= ga[m];
+      out(m, t.k) -= gb[m];
+      out(m, t.j) += ga[m] + gb[m];
     }
-  }
-  energies[0] += energy;
+    return energy;
+  });
 }
 
 void HarmonicAngleTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
-  for (const Angle& t : angles_) {
+  loop_.run(static_cast<int>(angles_.size()), out, [&](int n, Coords& target) {
+    const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));
     const Vec3 vb = box_.minimum_image(q.col(t.k) - q.col(t.j));
     const Vec3 ua = u.col(t.i) - u.col(t.j), ub = u.col(t.k) - u.col(t.j);
@@ -77,11 +76,12 @@ void HarmonicAngleTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
     Dual ga[3], gb[3];
     angle_energy_gradient(a, b, t.force_constant, t.theta0, ga, gb);
     for (int m = 0; m < 3; ++m) {
-      out(m, t.i) += ga[m].d;
-      out(m, t.k) += gb[m].d;
-      out(m, t.j) -= ga[m].d + gb[m].d;
+      target(m, t.i) += ga[m].d;
+      target(m, t.k) += gb[m].d;
+      target(m, t.j) -= ga[m].d + gb[m].d;
     }
-  }
+    return 0.0;
+  });
 }
 
 }  // namespace vimd

@@ -7,6 +7,7 @@
 #include "engine/box.hpp"
 #include "engine/force_field.hpp"
 #include "engine/system.hpp"
+#include "forcefields/bonded_loop.hpp"
 
 namespace vimd {
 
@@ -21,6 +22,7 @@ class HarmonicAngleTerm : public ForceTerm {
  private:
   std::vector<Angle> angles_;
   Box box_;
+  BondedLoop loop_;
 };
 
 }  // namespace vimd

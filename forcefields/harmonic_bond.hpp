@@ -7,6 +7,7 @@
 #include "engine/box.hpp"
 #include "engine/force_field.hpp"
 #include "engine/system.hpp"
+#include "forcefields/bonded_loop.hpp"
 
 namespace vimd {
 
@@ -21,6 +22,7 @@ class HarmonicBondTerm : public ForceTerm {
  private:
   std::vector<Bond> bonds_;
   Box box_;
+  BondedLoop loop_;
 };
 
 }  // namespace vimd

@@ -7,6 +7,8 @@
 #include <random>
 
 #include "engine/neighbor_list.hpp"
+#include "forcefields/harmonic_angle.hpp"
+#include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
 #include "forcefields/registry.hpp"
 #include "test_ff_systems.hpp"
@@ -71,6 +73,31 @@ INSTANTIATE_TEST_SUITE_P(AllModifiersAndCoulombKinds, ThreadAgreement,
                              if (ch == '-') ch = '_';
                            return name;
                          });
+
+// Bonds and angles go parallel above a few thousand items: check them on their own.
+TEST(ThreadAgreementBonded, BondsAndAnglesAgree) {
+  auto [system, q] = testing::water_like_system(2500, Vec3(4.6, 4.5, 4.7), 79, Vec3::Zero(), 0.25);
+  ASSERT_GE(system.angles.size(), 2500u);
+  std::mt19937_64 rng(2);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Coords u(3, q.cols());
+  for (int i = 0; i < q.cols(); ++i)
+    for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
+  HarmonicBondTerm bonds(system.bonds, system.box);
+  HarmonicAngleTerm angles(system.angles, system.box);
+  for (ForceTerm* term : {static_cast<ForceTerm*>(&bonds), static_cast<ForceTerm*>(&angles)}) {
+    omp_set_num_threads(1);
+    const auto one = testing::evaluate(*term, q);
+    const Coords hu_one = testing::hessian_vector(*term, q, u);
+    omp_set_num_threads(2);
+    const auto two = testing::evaluate(*term, q);
+    const Coords hu_two = testing::hessian_vector(*term, q, u);
+    omp_set_num_threads(omp_get_num_procs());
+    EXPECT_EQ(one.energy, two.energy) << term->energy_names()[0];
+    EXPECT_LT(testing::relative_difference(two.f, one.f), 1e-12) << term->energy_names()[0];
+    EXPECT_LT(testing::relative_difference(hu_two, hu_one), 1e-12) << term->energy_names()[0];
+  }
+}
 
 TEST(ThreadAgreementList, NeighborListDoesNotDependOnThreadCount) {
   auto [system, q] = testing::water_like_system(1200, Vec3(3.6, 3.5, 3.7), 78);
