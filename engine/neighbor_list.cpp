@@ -230,9 +230,9 @@ void NeighborList::compute_bounds() {
   }
 }
 
-std::uint32_t NeighborList::pair_mask(int i_half, int j_cluster, int shift_index) const {
+void NeighborList::pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2]) const {
   const double range2 = (cutoff_ + skin_) * (cutoff_ + skin_);
-  const int i_first = i_half * kHalf;
+  const int i_first = i_cluster * kCluster;
   const int j_first = j_cluster * kCluster;
   const Vec3& shift = shift_vectors_[shift_index];
   const double* x = slot_wrapped_[0].data();
@@ -240,26 +240,30 @@ std::uint32_t NeighborList::pair_mask(int i_half, int j_cluster, int shift_index
   const double* z = slot_wrapped_[2].data();
   // Only pairs within cut-off + skin now can come inside the cut-off before the next build.
   static_assert(kCluster == kSimdWidth, "a j-cluster is one SIMD vector");
-  const SimdDouble xj = simd_load(x + j_first), yj = simd_load(y + j_first), zj = simd_load(z + j_first);
-  std::uint32_t mask = 0;
-  for (int ii = 0; ii < kHalf; ++ii) {
-    const SimdDouble dx = (x[i_first + ii] - shift[0]) - xj, dy = (y[i_first + ii] - shift[1]) - yj,
-                     dz = (z[i_first + ii] - shift[2]) - zj;
-    mask |= simd_bits(dx * dx + dy * dy + dz * dz < range2) << (ii * kCluster);
+  const SimdDouble xj = simd_load(x + j_first) + shift[0], yj = simd_load(y + j_first) + shift[1],
+                   zj = simd_load(z + j_first) + shift[2];
+  std::uint64_t near = 0;  // bit (i * 8 + j) for the 8 x 8 atom pairs
+  for (int i = 0; i < kCluster; ++i) {
+    const SimdDouble dx = x[i_first + i] - xj, dy = y[i_first + i] - yj, dz = z[i_first + i] - zj;
+    near |= static_cast<std::uint64_t>(simd_bits(dx * dx + dy * dy + dz * dz < range2)) << (i * kCluster);
   }
   // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
   // its own image.
   constexpr std::uint32_t kRowsOf = 0x01010101u;  // one byte per i row
-  mask &= (cluster_occupancy_[j_cluster] * kRowsOf) & half_rows_[i_half];
-  if (j_cluster == i_half / 2) {
-    // Bit (ii, jj) of i-half hh is the pair of cluster slots (4 hh + ii, jj).
-    static constexpr std::uint32_t kAbove[2] = {0xf0f8fcfeu, 0x0080c0e0u};  // jj > 4 hh + ii
-    static constexpr std::uint32_t kOffDiagonal[2] = {0xf7fbfdfeu, 0x7fbfdfefu};  // jj != 4 hh + ii
-    mask &= shift_index == zero_shift_ ? kAbove[i_half % 2] : kOffDiagonal[i_half % 2];
+  const std::uint32_t occupied = cluster_occupancy_[j_cluster] * kRowsOf;
+  for (int hh = 0; hh < 2; ++hh) {
+    const int i_half = 2 * i_cluster + hh;
+    std::uint32_t mask = static_cast<std::uint32_t>(near >> (hh * 32)) & occupied & half_rows_[i_half];
+    if (j_cluster == i_cluster) {
+      // Bit (ii, jj) of i-half hh is the pair of cluster slots (4 hh + ii, jj).
+      static constexpr std::uint32_t kAbove[2] = {0xf0f8fcfeu, 0x0080c0e0u};        // jj > 4 hh + ii
+      static constexpr std::uint32_t kOffDiagonal[2] = {0xf7fbfdfeu, 0x7fbfdfefu};  // jj != 4 hh + ii
+      mask &= shift_index == zero_shift_ ? kAbove[hh] : kOffDiagonal[hh];
+    }
+    for (int k = half_exclusion_start_[i_half]; k < half_exclusion_start_[i_half + 1]; ++k)
+      if (half_exclusions_[k].j_cluster == j_cluster) mask &= ~half_exclusions_[k].mask;
+    masks[hh] = mask;
   }
-  for (int k = half_exclusion_start_[i_half]; k < half_exclusion_start_[i_half + 1]; ++k)
-    if (half_exclusions_[k].j_cluster == j_cluster) mask &= ~half_exclusions_[k].mask;
-  return mask;
 }
 
 void NeighborList::search_pairs() {
@@ -324,10 +328,10 @@ void NeighborList::search_pairs() {
                 const int b = b0 + __builtin_ctz(candidates);
                 // The half list keeps a cluster's own images for one of ±shift only.
                 if (b == a_cluster && si != zero_shift_ && !positive) continue;
-                for (int hh = 0; hh < 2; ++hh) {
-                  const std::uint32_t mask = pair_mask(2 * a_cluster + hh, b, si);
-                  if (mask != 0) found[hh].push_back({b, si, mask});
-                }
+                std::uint32_t masks[2];
+                pair_masks(a_cluster, b, si, masks);
+                for (int hh = 0; hh < 2; ++hh)
+                  if (masks[hh] != 0) found[hh].push_back({b, si, masks[hh]});
               }
             }
           }

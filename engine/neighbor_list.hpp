@@ -84,7 +84,8 @@ class NeighborList {
   void compute_bounds();
   void search_pairs();
   void collect_excluded_pairs();
-  std::uint32_t pair_mask(int i_half, int j_cluster, int shift_index) const;
+  // Entry masks of the two i-halves of i_cluster against j_cluster + shift.
+  void pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2]) const;
 
   Box box_;
   double cutoff_, skin_;
