@@ -15,6 +15,10 @@ namespace vimd {
 namespace {
 
 constexpr int kMaxAndersonDepth = 8;
+// Relaxation control of the step iteration (see step()).
+constexpr double kNoProgress = 0.95;
+constexpr double kMinRelaxation = 1.0 / 1024;
+constexpr double kJumpFactor = 100;
 
 std::string format_tolerance(double x) {
   char buf[32];
@@ -76,7 +80,7 @@ struct VariationalIntegrator::Work {
   Eigen::VectorXd nu;
   // Anderson history: per atom (q/h, v, M⁻¹p) and the fixed-point residual in the same scaling.
   std::vector<Eigen::Matrix<double, 9, Eigen::Dynamic>> history_x, history_f;
-  int history_count = 0;
+  int history_start = 0;  // iteration after which the current Anderson history began
 
   Work(Problem& p, const VariationalSettings& s)
       : problem(&p),
@@ -106,7 +110,7 @@ VariationalIntegrator::VariationalIntegrator(const IntegratorConfig& config)
 VariationalIntegrator::~VariationalIntegrator() = default;
 
 std::vector<std::string> VariationalIntegrator::diagnostic_names() const {
-  return {"vi_iterations", "vi_residual", "noether_px", "noether_py", "noether_pz"};
+  return {"vi_iterations", "vi_residual", "vi_jump", "noether_px", "noether_py", "noether_pz"};
 }
 
 const Coords& VariationalIntegrator::qbar() const { return work_->qbar; }
@@ -265,10 +269,16 @@ void VariationalIntegrator::predict(Work& w, const State& state, long step) {
   w.mass_q.apply(w.v);
 }
 
-void VariationalIntegrator::update(Work& w, int iteration, long step) {
+void VariationalIntegrator::update(Work& w, int iteration, long step, double relaxation) {
   const int n = static_cast<int>(w.q.cols());
   const double h = settings_.dt;
   const Eigen::VectorXd& inverse_mass = w.problem->inverse_mass;
+  if (relaxation < 1) {
+    w.dq *= relaxation;
+    w.dv *= relaxation;
+    w.dp *= relaxation;
+    w.history_start = iteration;  // Anderson restarts after damping
+  }
   // The plain update: q ← P(q + δq), v ← M-orthogonal projection of v + δv at the new q, p⁺ ← p⁺ + δp.
   auto settle = [&](Coords& q_trial, Coords& v_trial) {
     if (settings_.alpha_minus == 0) {
@@ -286,7 +296,7 @@ void VariationalIntegrator::update(Work& w, int iteration, long step) {
   w.v_trial = w.v + w.dv;
   settle(w.trial, w.v_trial);
   const int depth = settings_.anderson_depth;
-  if (depth == 0) {
+  if (depth == 0 || relaxation < 1) {
     w.q = w.trial;
     w.v = w.v_trial;
     w.p_plus += w.dp;
@@ -296,7 +306,8 @@ void VariationalIntegrator::update(Work& w, int iteration, long step) {
   // comparable: with f = T(x) − x, x ← T(x) − Σ_j γ_j (Δx_j + Δf_j), γ = argmin ‖f − Σ_j γ_j Δf_j‖,
   // where Δ·_j = ·_k − ·_{k−j} over the last `depth` iterates. Then back onto TQ.
   const int slots = depth + 1;
-  const int k = (iteration - 1) % slots;
+  const int count = iteration - w.history_start;  // iterates in the current Anderson history
+  const int k = (count - 1) % slots;
   auto slot = [&](int j) { return ((k - j) % slots + slots) % slots; };
   auto& xk = w.history_x[k];
   auto& fk = w.history_f[k];
@@ -304,7 +315,7 @@ void VariationalIntegrator::update(Work& w, int iteration, long step) {
     xk.col(i) << w.q.col(i) / h, w.v.col(i), inverse_mass[i] * w.p_plus.col(i);
     fk.col(i) << (w.trial.col(i) - w.q.col(i)) / h, w.v_trial.col(i) - w.v.col(i), inverse_mass[i] * w.dp.col(i);
   });
-  const int m = std::min(iteration, slots) - 1;
+  const int m = std::min(count, slots) - 1;
   Eigen::Matrix<double, kMaxAndersonDepth, 1> gamma = Eigen::Matrix<double, kMaxAndersonDepth, 1>::Zero();
   if (m > 0) {
     Eigen::Matrix<double, kMaxAndersonDepth, kMaxAndersonDepth> gram;
@@ -351,10 +362,17 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
 
   predict(w, state, step);
+  w.history_start = 0;
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.
   const double round_off = 8 * std::numeric_limits<double>::epsilon() * (max_abs(state.q) / h + max_abs(state.v));
   const double tolerance = std::max(settings_.tolerance, round_off);
-  double err = std::numeric_limits<double>::infinity();
+  double err = std::numeric_limits<double>::infinity(), previous = err, before_previous = err;
+  // Relaxation of the update, halved while the residual stops decreasing. The residual jumps where
+  // a pair crosses the cut-off inside a stage (the reaction field's second derivative, or an
+  // unsmoothed force, is discontinuous there); then no root exists, the plain iteration cycles
+  // across the jump, and the damped one settles on it.
+  double relaxation = 1;
+  bool settled_at_jump = false;
   int it = 0;
   for (;;) {
     ++it;
@@ -380,11 +398,28 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     if (!std::isfinite(err))
       throw ConvergenceError("vi", step, it, err, "the residual is not finite (the step is unstable; reduce dt)");
     if (err <= tolerance) break;
+    // No progress over two iterations (the plain iteration's convergence is not monotone, a
+    // cycle across a jump repeats every other iteration): damp; good progress: undamp.
+    if (err > kNoProgress * before_previous)
+      relaxation = std::max(0.5 * relaxation, kMinRelaxation);
+    else if (err < previous)
+      relaxation = std::min(2 * relaxation, 1.0);
+    // Settled on a jump: the iterate moves by less than the tolerance while the residual, which
+    // cannot vanish there, stays within kJumpFactor of it.
+    if (relaxation < 1 && relaxation * err <= tolerance && err <= kJumpFactor * tolerance) {
+      settled_at_jump = true;
+      break;
+    }
     if (it >= settings_.max_iterations)
       throw ConvergenceError("vi", step, it, err,
-                             "raise max_iterations or solver_tolerance, or reduce dt (tolerance " +
+                             std::string(relaxation < 1 ? "the residual stopped decreasing (a discontinuity in the forces "
+                                                          "or their derivatives, or too large a step); "
+                                                        : "") +
+                                 "raise max_iterations or solver_tolerance, or reduce dt (tolerance " +
                                  format_tolerance(tolerance) + " nm/ps)");
-    update(w, it, step);
+    before_previous = previous;
+    previous = err;
+    update(w, it, step, relaxation);
   }
 
   // Accept the evaluated point w: (q̄, p̄) ← (∂⁺(w), tangential part of p⁺ + δp at ∂⁺(w)).
@@ -400,7 +435,8 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   report.iterations = it;
   report.residual = err;
   const Vec3 momentum = w.pbar.rowwise().sum();
-  report.diagnostics = {static_cast<double>(it), err, momentum.x(), momentum.y(), momentum.z()};
+  report.diagnostics = {static_cast<double>(it), err, settled_at_jump ? 1.0 : 0.0, momentum.x(), momentum.y(),
+                        momentum.z()};
   return report;
 }
 

@@ -47,7 +47,9 @@ class VariationalIntegrator : public Integrator {
   std::string name() const override { return "vi"; }
   void init(Problem& problem, State& state) override;
   StepReport step(Problem& problem, State& state) override;
-  // iterations, final residual (nm/ps), discrete Noether linear momentum Σ p̄ (amu nm/ps).
+  // iterations, final residual (nm/ps), 1 if the step settled on a jump of the residual (a pair
+  // crossing the cut-off; residual then above the tolerance but within 100×), discrete Noether
+  // linear momentum Σ p̄ (amu nm/ps).
   std::vector<std::string> diagnostic_names() const override;
 
   const VariationalSettings& settings() const { return settings_; }
@@ -62,7 +64,7 @@ class VariationalIntegrator : public Integrator {
   void forward_segments(Work& w, const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr);
   void residual(Work& w, const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step);
   void predict(Work& w, const State& state, long step);
-  void update(Work& w, int iteration, long step);
+  void update(Work& w, int iteration, long step, double relaxation);
   void write_state(Work& w, State& state) const;
   void record_momentum_offset(Work& w) const;
 
