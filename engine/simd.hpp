@@ -56,7 +56,7 @@ inline SimdDouble simd_sqrt(SimdDouble x) {
 #if defined(__AVX512F__)
   __m512d v;
   std::memcpy(&v, &x, sizeof v);
-  v = _mm512_sqrt_pd(v);
+  v = _mm512_mask_sqrt_pd(v, 0xff, v);  // the unmasked form trips GCC 12's -Wmaybe-uninitialized
   std::memcpy(&x, &v, sizeof v);
 #elif defined(__AVX__)
   __m256d v[2];
