@@ -282,7 +282,9 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       c6_[a * n_types_ + b] = system.c6(a, b);
       c12_[a * n_types_ + b] = system.c12(a, b);
     }
-  if (rf_.kind == CoulombKind::reaction_field) self_energy_ = rf_self_energy(rf_, charge_.squaredNorm());
+  double sum_q2 = 0;  // a plain loop: Eigen's AVX-512 reduction trips a GCC 12 false-positive warning
+  for (double qi : charge_) sum_q2 += qi * qi;
+  if (rf_.kind == CoulombKind::reaction_field) self_energy_ = rf_self_energy(rf_, sum_q2);
 }
 
 void NonbondedPairTerm::prepare(const Coords& q) {
