@@ -17,6 +17,9 @@ namespace vimd {
 namespace {
 
 constexpr int kCluster = NeighborList::kClusterSize;
+// Below this many atoms the O(N) loops run on one thread: starting a team costs more than the work
+// (small systems are evaluated very often by the variational integrators).
+constexpr int kParallelAtoms = 4096;
 constexpr int kHalf = NeighborList::kHalfSize;
 constexpr const unsigned* kLaneBit = NeighborList::kLaneBit;
 
@@ -66,7 +69,7 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
 double NeighborList::max_displacement(const Coords& q) const {
   if (builds_ == 0 || q.cols() != n_atoms_) return INFINITY;
   double max_d2 = 0;
-#pragma omp parallel for reduction(max : max_d2) schedule(static)
+#pragma omp parallel for reduction(max : max_d2) schedule(static) if (n_atoms_ >= kParallelAtoms)
   for (int i = 0; i < n_atoms_; ++i) max_d2 = std::max(max_d2, (q.col(i) - q_at_build_.col(i)).squaredNorm());
   return std::sqrt(max_d2);
 }
@@ -150,7 +153,7 @@ void NeighborList::bin_atoms(const Coords& q) {
     std::vector<int> fill(column_atom_start.begin(), column_atom_start.end() - 1);
     for (int i = 0; i < n; ++i) sorted[fill[column_of[i]]++] = i;
   }
-#pragma omp parallel for schedule(dynamic, 16)
+#pragma omp parallel for schedule(dynamic, 16) if (n >= kParallelAtoms)
   for (int c = 0; c < n_columns; ++c)
     std::sort(sorted.begin() + column_atom_start[c], sorted.begin() + column_atom_start[c + 1], [&](int a, int b) {
       return wrapped_(2, a) < wrapped_(2, b) || (wrapped_(2, a) == wrapped_(2, b) && a < b);
@@ -213,7 +216,7 @@ void NeighborList::compute_bounds() {
     cluster_hi_[k].assign(n_clusters_ + kSimdWidth, -INFINITY);
   }
   cluster_bounds_.resize(n_clusters_);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
   for (int c = 0; c < n_clusters_; ++c) {
     Bounds b{Vec3::Constant(INFINITY), Vec3::Constant(-INFINITY)};
     for (int s = c * kCluster; s < (c + 1) * kCluster; ++s) {
@@ -273,7 +276,7 @@ void NeighborList::search_pairs() {
 
   std::vector<int> count(n_halves + 1, 0);
   std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
-#pragma omp parallel
+#pragma omp parallel if (n_atoms_ >= kParallelAtoms)
   {
     // Contiguous blocks of clusters per thread, concatenated in thread order: the list does not
     // depend on the thread count.
@@ -371,7 +374,7 @@ void NeighborList::collect_excluded_pairs() {
 
 void NeighborList::pack_positions(const Coords& q, double* x, double* y, double* z) const {
   const int n = n_slots();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
   for (int s = 0; s < n; ++s) {
     const int a = slot_atom_[s];
     if (a < 0) {
@@ -386,7 +389,7 @@ void NeighborList::pack_positions(const Coords& q, double* x, double* y, double*
 
 void NeighborList::pack_vectors(const Coords& u, double* x, double* y, double* z) const {
   const int n = n_slots();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
   for (int s = 0; s < n; ++s) {
     const int a = slot_atom_[s];
     if (a < 0) {

@@ -333,7 +333,9 @@ void NonbondedPairTerm::run_parallel(Kernel&& kernel, Coords& out) {
   ensure_buffers();
   const int n = list_.n_slots();
   const auto& slot_atom = list_.slot_atom();
-#pragma omp parallel
+  // Small lists run on one thread: starting a team would cost more than the pairs.
+  constexpr std::size_t kParallelEntries = 2048;
+#pragma omp parallel if (list_.entries().size() >= kParallelEntries)
   {
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
     double* buffer = thread_buffers_[t].data();

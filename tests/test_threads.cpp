@@ -41,9 +41,10 @@ class ThreadAgreement : public ::testing::TestWithParam<std::tuple<std::string, 
   void TearDown() override { omp_set_num_threads(omp_get_num_procs()); }
 };
 
+// 4500 atoms: enough for every parallel loop (list build, packing, pair loop) to use the threads.
 TEST_P(ThreadAgreement, OneAndTwoThreadsAgree) {
   const auto [modifier, coulomb] = GetParam();
-  auto [system, q] = testing::water_like_system(1200, Vec3(3.6, 3.5, 3.7), 77);
+  auto [system, q] = testing::water_like_system(1500, Vec3(3.9, 3.8, 4.0), 77);
   std::mt19937_64 rng(1);
   std::normal_distribution<double> normal(0.0, 1.0);
   Coords u(3, q.cols());
@@ -100,7 +101,7 @@ TEST(ThreadAgreementBonded, BondsAndAnglesAgree) {
 }
 
 TEST(ThreadAgreementList, NeighborListDoesNotDependOnThreadCount) {
-  auto [system, q] = testing::water_like_system(1200, Vec3(3.6, 3.5, 3.7), 78);
+  auto [system, q] = testing::water_like_system(1500, Vec3(3.9, 3.8, 4.0), 78);
   auto build = [&](int threads) {
     omp_set_num_threads(threads);
     NeighborList list(system.box, 0.9, 0.1, system.exclusions);
