@@ -124,8 +124,8 @@ void NeighborList::bin_atoms(const Coords& q) {
 
   // Columns about as wide as a cubic cluster of kClusterSize atoms at the mean density.
   constexpr double kMinExtent = 1e-3;  // nm; keeps the density finite for flat or single-atom systems
-  const double volume = std::max(extent[0], kMinExtent) * std::max(extent[1], kMinExtent) *
-                        std::max(extent[2], kMinExtent);
+  const double volume =
+      std::max(extent[0], kMinExtent) * std::max(extent[1], kMinExtent) * std::max(extent[2], kMinExtent);
   const double cluster_side = std::cbrt(kCluster * volume / std::max(n, 1));
   const int max_columns = std::max(1, n / kCluster);
   for (int k = 0; k < 2; ++k)
@@ -308,9 +308,9 @@ void NeighborList::search_pairs() {
         const bool positive = is_positive_image(shift_images_[si]);
         // Clusters are numbered column by column, so clusters b ≥ a_cluster live in columns from
         // a_cluster's own column on.
-        const int a_column = static_cast<int>(
-            std::upper_bound(column_cluster_start_.begin(), column_cluster_start_.end(), a_cluster) -
-            column_cluster_start_.begin() - 1);
+        const int a_column =
+            static_cast<int>(std::upper_bound(column_cluster_start_.begin(), column_cluster_start_.end(), a_cluster) -
+                             column_cluster_start_.begin() - 1);
         for (int cx = std::max(c_lo[0], a_column / n_columns_[1]); cx <= c_hi[0]; ++cx)
           for (int cy = c_lo[1]; cy <= c_hi[1]; ++cy) {
             const int column = cx * n_columns_[1] + cy;

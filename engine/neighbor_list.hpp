@@ -105,14 +105,14 @@ class NeighborList {
 
   int n_clusters_ = 0;
   std::vector<int> slot_atom_, atom_slot_;
-  std::vector<double> slot_wrapped_[3];        // wrapped build positions in slot order
-  std::vector<unsigned> cluster_occupancy_;     // per cluster: bit k set if slot k holds an atom
+  std::vector<double> slot_wrapped_[3];      // wrapped build positions in slot order
+  std::vector<unsigned> cluster_occupancy_;  // per cluster: bit k set if slot k holds an atom
   struct ClusterBits {
     int j_cluster;
     std::uint32_t mask;
   };
-  std::vector<std::uint32_t> half_rows_;         // per i-half: 0xff in each row that holds an atom
-  std::vector<int> half_exclusion_start_;        // per i-half: its excluded pairs by j-cluster
+  std::vector<std::uint32_t> half_rows_;   // per i-half: 0xff in each row that holds an atom
+  std::vector<int> half_exclusion_start_;  // per i-half: its excluded pairs by j-cluster
   std::vector<ClusterBits> half_exclusions_;
   std::vector<double> cluster_lo_[3], cluster_hi_[3];  // cluster bounding boxes, SoA
   std::vector<Bounds> cluster_bounds_;

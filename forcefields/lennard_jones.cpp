@@ -12,8 +12,9 @@ VdwModifier parse_vdw_modifier(const std::string& name) {
   if (name == "potential-shift") return VdwModifier::potential_shift;
   if (name == "force-switch") return VdwModifier::force_switch;
   if (name == "potential-switch") return VdwModifier::potential_switch;
-  throw InputError("[forcefield]", 0,
-                   "unknown vdw_modifier '" + name + "' (expected none, potential-shift, force-switch or potential-switch)");
+  throw InputError(
+      "[forcefield]", 0,
+      "unknown vdw_modifier '" + name + "' (expected none, potential-shift, force-switch or potential-switch)");
 }
 
 LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch) {
@@ -31,7 +32,8 @@ LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_swit
     case VdwModifier::potential_switch: {
       if (!(r_switch >= 0 && r_switch < rc)) {
         std::ostringstream msg;
-        msg << "vdw_switch (" << r_switch << " nm) must lie in [0, cutoff = " << rc << " nm) for the switched modifiers";
+        msg << "vdw_switch (" << r_switch << " nm) must lie in [0, cutoff = " << rc
+            << " nm) for the switched modifiers";
         throw InputError("[forcefield]", 0, msg.str());
       }
       k.r_switch = r_switch;

@@ -27,7 +27,8 @@ struct LjConstants {
   double shift6 = 0, shift12 = 0;
   // Force switch: −dV_p/dr = p r^-(p+1) + A_p x² + B_p x³, V_p = r⁻ᵖ − A_p/3 x³ − B_p/4 x⁴ − C_p, x = r − r_switch ≥ 0.
   double a6 = 0, b6 = 0, a12 = 0, b12 = 0;
-  // Potential switch: V → V·S(x), S = 1 + s3 x³ + s4 x⁴ + s5 x⁵ (S(0) = 1, S(rc − r_switch) = 0, S' = S'' = 0 at both ends).
+  // Potential switch: V → V·S(x), S = 1 + s3 x³ + s4 x⁴ + s5 x⁵ (S(0) = 1, S(rc − r_switch) = 0, S' = S'' = 0 at both
+  // ends).
   double s3 = 0, s4 = 0, s5 = 0;
 };
 
@@ -46,7 +47,8 @@ inline void lj_energy_force(const LjConstants& k, T c6, T c12, T rinv2, T r, T& 
     const T x = positive_part(r - k.r_switch);
     const T x2 = x * x, x3 = x2 * x;
     const T rinv = rinv2 * r;
-    v = rep - dis + c12 * (k.shift12 - (k.a12 / 3 + k.b12 / 4.0 * x) * x3) - c6 * (k.shift6 - (k.a6 / 3 + k.b6 / 4.0 * x) * x3);
+    v = rep - dis + c12 * (k.shift12 - (k.a12 / 3 + k.b12 / 4.0 * x) * x3) -
+        c6 * (k.shift6 - (k.a6 / 3 + k.b6 / 4.0 * x) * x3);
     g = (12.0 * rep - 6.0 * dis) * rinv2 + (c12 * (k.a12 + k.b12 * x) - c6 * (k.a6 + k.b6 * x)) * x2 * rinv;
   } else {  // potential_switch
     const T x = positive_part(r - k.r_switch);
@@ -88,8 +90,8 @@ inline void lj_hessian(const LjConstants& k, T c6, T c12, T rinv2, T r, T& a, T&
     const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
     const T dds = (6.0 * k.s3 + (12.0 * k.s4 + 20.0 * k.s5 * x) * x) * x;
     const T u = rep - dis;
-    const T du = (6.0 * dis - 12.0 * rep) * rinv;         // U'
-    const T ddu = (156.0 * rep - 42.0 * dis) * rinv2;     // U''
+    const T du = (6.0 * dis - 12.0 * rep) * rinv;      // U'
+    const T ddu = (156.0 * rep - 42.0 * dis) * rinv2;  // U''
     const T dphi = du * s + u * ds;
     const T ddphi = ddu * s + 2.0 * du * ds + u * dds;
     a = dphi * rinv;

@@ -131,8 +131,8 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
 // force evaluation at the same positions recorded (rows without such pairs are then skipped; the
 // skipped rows contribute exact zeros otherwise, so both give identical results).
 template <VdwModifier M, bool kCoulomb>
-void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz,
-                    const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz) {
+void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
+                    int h0, int h1, double* ox, double* oy, double* oz) {
   const SimdDouble one = simd_broadcast(1.0), zero{};
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -368,10 +368,14 @@ using ForceKernelFn = void (*)(const PairView&, int, int, double*, double*, doub
 template <bool kCoulomb>
 ForceKernelFn<kCoulomb> force_kernel(VdwModifier m) {
   switch (m) {
-    case VdwModifier::none: return force_halves<VdwModifier::none, kCoulomb>;
-    case VdwModifier::potential_shift: return force_halves<VdwModifier::potential_shift, kCoulomb>;
-    case VdwModifier::force_switch: return force_halves<VdwModifier::force_switch, kCoulomb>;
-    case VdwModifier::potential_switch: return force_halves<VdwModifier::potential_switch, kCoulomb>;
+    case VdwModifier::none:
+      return force_halves<VdwModifier::none, kCoulomb>;
+    case VdwModifier::potential_shift:
+      return force_halves<VdwModifier::potential_shift, kCoulomb>;
+    case VdwModifier::force_switch:
+      return force_halves<VdwModifier::force_switch, kCoulomb>;
+    case VdwModifier::potential_switch:
+      return force_halves<VdwModifier::potential_switch, kCoulomb>;
   }
   throw std::logic_error("unknown VdwModifier");
 }
@@ -382,10 +386,14 @@ using HessianKernelFn = void (*)(const PairView&, const double*, const double*, 
 template <bool kCoulomb>
 HessianKernelFn hessian_kernel(VdwModifier m) {
   switch (m) {
-    case VdwModifier::none: return hessian_halves<VdwModifier::none, kCoulomb>;
-    case VdwModifier::potential_shift: return hessian_halves<VdwModifier::potential_shift, kCoulomb>;
-    case VdwModifier::force_switch: return hessian_halves<VdwModifier::force_switch, kCoulomb>;
-    case VdwModifier::potential_switch: return hessian_halves<VdwModifier::potential_switch, kCoulomb>;
+    case VdwModifier::none:
+      return hessian_halves<VdwModifier::none, kCoulomb>;
+    case VdwModifier::potential_shift:
+      return hessian_halves<VdwModifier::potential_shift, kCoulomb>;
+    case VdwModifier::force_switch:
+      return hessian_halves<VdwModifier::force_switch, kCoulomb>;
+    case VdwModifier::potential_switch:
+      return hessian_halves<VdwModifier::potential_switch, kCoulomb>;
   }
   throw std::logic_error("unknown VdwModifier");
 }
@@ -398,9 +406,21 @@ constexpr int kExcludedBlock = 1024;
 void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
   prepare(q);
   list_.pack_positions(q, x_.data(), y_.data(), z_.data());
-  const PairView view{x_.data(),  y_.data(),  z_.data(),  slot_charge_.data(), slot_type_.data(),
-                      slot_c6_.data(), slot_c12_.data(), static_cast<std::size_t>(list_.n_slots()),  list_.entries().data(), list_.half_start().data(),
-                      list_.shift_vectors().data(), list_.excluded_pairs().data(), cutoff2_, lj_, rf_};
+  const PairView view{x_.data(),
+                      y_.data(),
+                      z_.data(),
+                      slot_charge_.data(),
+                      slot_type_.data(),
+                      slot_c6_.data(),
+                      slot_c12_.data(),
+                      static_cast<std::size_t>(list_.n_slots()),
+                      list_.entries().data(),
+                      list_.half_start().data(),
+                      list_.shift_vectors().data(),
+                      list_.excluded_pairs().data(),
+                      cutoff2_,
+                      lj_,
+                      rf_};
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const auto pair_kernel = coulomb ? force_kernel<true>(modifier_) : force_kernel<false>(modifier_);
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
@@ -417,7 +437,8 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
         const auto [h0, h1] = half_block(half_start, t, nt);
         pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
         for (int b = t; b < n_blocks; b += nt)
-          block_coulomb[b] = excluded_forces(view, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
+          block_coulomb[b] =
+              excluded_forces(view, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
       },
       f);
   double lj_sum = 0, coulomb_sum = self_energy_;
@@ -433,9 +454,21 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   prepare(q);
   list_.pack_positions(q, x_.data(), y_.data(), z_.data());
   list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
-  const PairView view{x_.data(),  y_.data(),  z_.data(),  slot_charge_.data(), slot_type_.data(),
-                      slot_c6_.data(), slot_c12_.data(), static_cast<std::size_t>(list_.n_slots()),  list_.entries().data(), list_.half_start().data(),
-                      list_.shift_vectors().data(), list_.excluded_pairs().data(), cutoff2_, lj_, rf_};
+  const PairView view{x_.data(),
+                      y_.data(),
+                      z_.data(),
+                      slot_charge_.data(),
+                      slot_type_.data(),
+                      slot_c6_.data(),
+                      slot_c12_.data(),
+                      static_cast<std::size_t>(list_.n_slots()),
+                      list_.entries().data(),
+                      list_.half_start().data(),
+                      list_.shift_vectors().data(),
+                      list_.excluded_pairs().data(),
+                      cutoff2_,
+                      lj_,
+                      rf_};
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const auto pair_kernel = coulomb ? hessian_kernel<true>(modifier_) : hessian_kernel<false>(modifier_);
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;

@@ -1,7 +1,8 @@
 #pragma once
 // Reaction-field Coulomb as in the GROMACS Verlet scheme, V = 0 for r ≥ rc:
-//   V(r) = f qi qj/eps_r (1/r + k_rf r² − c_rf); excluded pairs (r < rc): f qi qj/eps_r (k_rf r² − c_rf); self: −½ f qi² c_rf/eps_r
-//   Units: q e, r nm, f = 138.935458 kJ/mol nm e⁻², V kJ/mol; k_rf = (eps_rf − eps_r)/((2 eps_rf + eps_r) rc³), c_rf = 1/rc + k_rf rc².
+//   V(r) = f qi qj/eps_r (1/r + k_rf r² − c_rf); excluded pairs (r < rc): f qi qj/eps_r (k_rf r² − c_rf); self: −½ f
+//   qi² c_rf/eps_r Units: q e, r nm, f = 138.935458 kJ/mol nm e⁻², V kJ/mol; k_rf = (eps_rf − eps_r)/((2 eps_rf +
+//   eps_r) rc³), c_rf = 1/rc + k_rf rc².
 //
 // GROMACS's "plain cut-off" Coulomb in the Verlet scheme is this same kernel with k_rf = 0 and
 // c_rf = 1/rc (forcerec.cpp init_interaction_const: "For plain cut-off we might use the

@@ -100,7 +100,8 @@ TEST(LennardJonesKernel, MatchesGromacsManualDefinitions) {
     EXPECT_NEAR(lj_value<VdwModifier::none>(none, c6, c12, r), lj, 1e-12 * std::abs(lj)) << r;
     const double shifted = lj - (c12 / std::pow(rc, 12) - c6 / std::pow(rc, 6));
     EXPECT_NEAR(lj_value<VdwModifier::potential_shift>(shift, c6, c12, r), shifted, 1e-12 * std::abs(lj)) << r;
-    const double fs = c12 * manual_force_switch_potential(12, r, r1, rc) - c6 * manual_force_switch_potential(6, r, r1, rc);
+    const double fs =
+        c12 * manual_force_switch_potential(12, r, r1, rc) - c6 * manual_force_switch_potential(6, r, r1, rc);
     EXPECT_NEAR(lj_value<VdwModifier::force_switch>(fsw, c6, c12, r), fs, 1e-11 * std::abs(lj)) << r;
     const double ps = lj * manual_switch(r, r1, rc);
     EXPECT_NEAR(lj_value<VdwModifier::potential_switch>(psw, c6, c12, r), ps, 1e-12 * std::abs(lj)) << r;
@@ -188,7 +189,9 @@ struct PairCase {
   double epsilon_rf;
 };
 
-void PrintTo(const PairCase& c, std::ostream* os) { *os << c.modifier << "/" << c.coulomb << "/eps_rf=" << c.epsilon_rf; }
+void PrintTo(const PairCase& c, std::ostream* os) {
+  *os << c.modifier << "/" << c.coulomb << "/eps_rf=" << c.epsilon_rf;
+}
 
 // 12 water-like molecules with no pair within 2e-4 nm of the cut-off, where the energy (LJ none)
 // or the force (potential-shift) jumps and finite differences (steps up to 2e-5 nm) would mislead.
@@ -196,7 +199,8 @@ testing::TestSystem system_away_from_cutoff(const Vec3& box, const Vec3& extent,
   for (std::uint64_t seed = 1;; ++seed) {
     auto t = testing::water_like_system(12, box, seed, extent);
     double gap = INFINITY;
-    testing::for_each_pair_distance(t.system, t.q, [&](int, int, double r) { gap = std::min(gap, std::abs(r - cutoff)); });
+    testing::for_each_pair_distance(t.system, t.q,
+                                    [&](int, int, double r) { gap = std::min(gap, std::abs(r - cutoff)); });
     if (gap > 2e-4) return t;
   }
 }
@@ -227,13 +231,16 @@ TEST_P(PairTermDerivatives, NonPeriodicSystem) {
 INSTANTIATE_TEST_SUITE_P(
     AllModifiersAndCoulombKinds, PairTermDerivatives,
     ::testing::Values(PairCase{"none", "reaction-field", 0.0}, PairCase{"potential-shift", "reaction-field", 0.0},
-                      PairCase{"force-switch", "reaction-field", 0.0}, PairCase{"potential-switch", "reaction-field", 0.0},
-                      PairCase{"potential-shift", "reaction-field", 78.0}, PairCase{"potential-switch", "reaction-field", 78.0},
-                      PairCase{"potential-shift", "cutoff", 0.0}, PairCase{"force-switch", "cutoff", 0.0},
-                      PairCase{"none", "none", 0.0}, PairCase{"potential-shift", "none", 0.0},
-                      PairCase{"force-switch", "none", 0.0}, PairCase{"potential-switch", "none", 0.0}),
+                      PairCase{"force-switch", "reaction-field", 0.0},
+                      PairCase{"potential-switch", "reaction-field", 0.0},
+                      PairCase{"potential-shift", "reaction-field", 78.0},
+                      PairCase{"potential-switch", "reaction-field", 78.0}, PairCase{"potential-shift", "cutoff", 0.0},
+                      PairCase{"force-switch", "cutoff", 0.0}, PairCase{"none", "none", 0.0},
+                      PairCase{"potential-shift", "none", 0.0}, PairCase{"force-switch", "none", 0.0},
+                      PairCase{"potential-switch", "none", 0.0}),
     [](const auto& info) {
-      std::string name = info.param.modifier + "_" + info.param.coulomb + "_eps" + std::to_string(int(info.param.epsilon_rf));
+      std::string name =
+          info.param.modifier + "_" + info.param.coulomb + "_eps" + std::to_string(int(info.param.epsilon_rf));
       for (char& ch : name)
         if (ch == '-') ch = '_';
       return name;
@@ -293,7 +300,8 @@ TEST(HarmonicAngleTerm, DerivativesMatchFiniteDifferences) {
   expect_derivatives_match(term, q, "angles");
   double expected = 0;
   for (const Angle& a : system.angles) {
-    const Vec3 u = system.box.minimum_image(q.col(a.i) - q.col(a.j)), v = system.box.minimum_image(q.col(a.k) - q.col(a.j));
+    const Vec3 u = system.box.minimum_image(q.col(a.i) - q.col(a.j)),
+               v = system.box.minimum_image(q.col(a.k) - q.col(a.j));
     const double theta = std::acos(u.dot(v) / (u.norm() * v.norm()));
     expected += 0.5 * a.force_constant * (theta - a.theta0) * (theta - a.theta0);
   }

@@ -85,10 +85,14 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
 
 Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u) {
   switch (term.vdw_modifier()) {
-    case VdwModifier::none: return brute_force<VdwModifier::none>(term, s, q, u);
-    case VdwModifier::potential_shift: return brute_force<VdwModifier::potential_shift>(term, s, q, u);
-    case VdwModifier::force_switch: return brute_force<VdwModifier::force_switch>(term, s, q, u);
-    case VdwModifier::potential_switch: return brute_force<VdwModifier::potential_switch>(term, s, q, u);
+    case VdwModifier::none:
+      return brute_force<VdwModifier::none>(term, s, q, u);
+    case VdwModifier::potential_shift:
+      return brute_force<VdwModifier::potential_shift>(term, s, q, u);
+    case VdwModifier::force_switch:
+      return brute_force<VdwModifier::force_switch>(term, s, q, u);
+    case VdwModifier::potential_switch:
+      return brute_force<VdwModifier::potential_switch>(term, s, q, u);
   }
   return {};
 }
@@ -219,7 +223,8 @@ TEST(NeighborList, SmallPartlyPeriodicAndNonPeriodicBoxes) {
       const std::string what = std::string(c.name) + ", " + modifier;
       expect_matches_brute_force(term, system, q, what);
       std::mt19937_64 rng(3);
-      expect_matches_brute_force(term, system, q + random_vectors(static_cast<int>(q.cols()), rng, 0.049), what + " moved");
+      expect_matches_brute_force(term, system, q + random_vectors(static_cast<int>(q.cols()), rng, 0.049),
+                                 what + " moved");
       expect_matches_brute_force(term, system, q + random_vectors(static_cast<int>(q.cols()), rng, 0.2), what + " far");
     }
 }
