@@ -30,10 +30,6 @@ bool is_positive_image(const Eigen::Vector3i& n) {
   return false;
 }
 
-// Contiguous block of [0, n) for thread t of nt: the same split for a given thread count.
-std::pair<int, int> static_block(int n, int t, int nt) {
-  return {static_cast<int>(static_cast<long>(n) * t / nt), static_cast<int>(static_cast<long>(n) * (t + 1) / nt)};
-}
 
 }  // namespace
 
@@ -274,18 +270,20 @@ void NeighborList::search_pairs() {
   const double range2 = list_range * list_range;
   const int n_halves = 2 * n_clusters_;
 
+  // Clusters are shared out dynamically (the half list gives early clusters more partners); each
+  // thread appends its entries to its own buffer and notes where each half's entries went, and the
+  // list is assembled in half order afterwards, so it does not depend on the thread count.
   std::vector<int> count(n_halves + 1, 0);
+  std::vector<int> owner(n_halves), offset(n_halves);
   std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
 #pragma omp parallel if (n_atoms_ >= kParallelAtoms)
   {
-    // Contiguous blocks of clusters per thread, concatenated in thread order: the list does not
-    // depend on the thread count.
     const int t = omp_get_thread_num();
-    const auto [first, last] = static_block(n_clusters_, t, omp_get_num_threads());
     std::vector<Entry>& out = per_thread[t];
     out.clear();
     std::vector<Entry> found[2];
-    for (int a_cluster = first; a_cluster < last; ++a_cluster) {
+#pragma omp for schedule(dynamic, 8)
+    for (int a_cluster = 0; a_cluster < n_clusters_; ++a_cluster) {
       // Candidates by the bounding box of the whole i-cluster, then per half.
       const Bounds& ba = cluster_bounds_[a_cluster];
       found[0].clear();
@@ -343,16 +341,19 @@ void NeighborList::search_pairs() {
         std::sort(found[hh].begin(), found[hh].end(), [](const Entry& x, const Entry& y) {
           return x.j_cluster < y.j_cluster || (x.j_cluster == y.j_cluster && x.shift < y.shift);
         });
-        count[2 * a_cluster + hh + 1] = static_cast<int>(found[hh].size());
+        const int h = 2 * a_cluster + hh;
+        count[h + 1] = static_cast<int>(found[hh].size());
+        owner[h] = t;
+        offset[h] = static_cast<int>(out.size());
         out.insert(out.end(), found[hh].begin(), found[hh].end());
       }
     }
   }
   half_start_.assign(n_halves + 1, 0);
   std::partial_sum(count.begin(), count.end(), half_start_.begin());
-  entries_.clear();
-  entries_.reserve(half_start_.back());
-  for (const auto& part : per_thread) entries_.insert(entries_.end(), part.begin(), part.end());
+  entries_.resize(half_start_.back());
+  for (int h = 0; h < n_halves; ++h)
+    std::copy_n(per_thread[owner[h]].begin() + offset[h], count[h + 1], entries_.begin() + half_start_[h]);
 }
 
 void NeighborList::collect_excluded_pairs() {
