@@ -30,7 +30,6 @@ bool is_positive_image(const Eigen::Vector3i& n) {
   return false;
 }
 
-
 }  // namespace
 
 NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions)
