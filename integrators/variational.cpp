@@ -81,6 +81,7 @@ struct VariationalIntegrator::Work {
   // Anderson history: per atom (q/h, v, M⁻¹p) and the fixed-point residual in the same scaling.
   std::vector<Eigen::Matrix<double, 9, Eigen::Dynamic>> history_x, history_f;
   int history_start = 0;  // iteration after which the current Anderson history began
+  double contraction = 1;  // largest contraction factor of the last step's iteration (1: unknown)
 
   Work(Problem& p, const VariationalSettings& s)
       : problem(&p),
@@ -269,7 +270,7 @@ void VariationalIntegrator::predict(Work& w, const State& state, long step) {
   w.mass_q.apply(w.v);
 }
 
-void VariationalIntegrator::update(Work& w, int iteration, long step, double relaxation) {
+void VariationalIntegrator::update(Work& w, int iteration, long step, double relaxation, bool plain) {
   const int n = static_cast<int>(w.q.cols());
   const double h = settings_.dt;
   const Eigen::VectorXd& inverse_mass = w.problem->inverse_mass;
@@ -296,7 +297,7 @@ void VariationalIntegrator::update(Work& w, int iteration, long step, double rel
   w.v_trial = w.v + w.dv;
   settle(w.trial, w.v_trial);
   const int depth = settings_.anderson_depth;
-  if (depth == 0 || relaxation < 1) {
+  if (depth == 0 || relaxation < 1 || plain) {
     w.q = w.trial;
     w.v = w.v_trial;
     w.p_plus += w.dp;
@@ -373,6 +374,10 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   // across the jump, and the damped one settles on it.
   double relaxation = 1;
   bool settled_at_jump = false;
+  // Largest contraction factor err_k/err_{k−1} seen in this step; the estimate for predicted
+  // stops is the larger of it and the last step's.
+  double contraction = 0;
+  bool finished_by_update = false;
   int it = 0;
   for (;;) {
     ++it;
@@ -398,6 +403,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     if (!std::isfinite(err))
       throw ConvergenceError("vi", step, it, err, "the residual is not finite (the step is unstable; reduce dt)");
     if (err <= tolerance) break;
+    if (it > 1) contraction = std::max(contraction, err / previous);
     // No progress over two iterations (the plain iteration's convergence is not monotone, a
     // cycle across a jump repeats every other iteration): damp; good progress: undamp.
     if (err > kNoProgress * before_previous)
@@ -419,12 +425,25 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
                                  format_tolerance(tolerance) + " nm/ps)");
     before_previous = previous;
     previous = err;
+    if (settings_.predicted_stop && it > 1 && relaxation == 1 &&
+        std::max(contraction, w.contraction) * err <= tolerance) {
+      // The update lands within contraction·err ≤ tolerance of the solution: take it, and spend
+      // only the forward pass that the new point's ∂⁺ needs, no residual to confirm it.
+      update(w, it, step, 1.0, /*plain=*/true);
+      forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 ? &w.seg_plus.stages[0].forces : nullptr);
+      w.euclid_plus.set_point(w.proj_plus.x);
+      err *= std::max(contraction, w.contraction);
+      finished_by_update = true;
+      break;
+    }
     update(w, it, step, relaxation);
   }
+  if (it > 1) w.contraction = std::min(contraction, 1.0);
 
-  // Accept the evaluated point w: (q̄, p̄) ← (∂⁺(w), tangential part of p⁺ + δp at ∂⁺(w)).
+  // Accept w: (q̄, p̄) ← (∂⁺(w), tangential part at ∂⁺(w) of p⁺ (+ δp when w was evaluated).
   w.qbar = w.proj_plus.x;
-  w.pbar = w.p_plus + w.dp;
+  w.pbar = w.p_plus;
+  if (!finished_by_update) w.pbar += w.dp;
   w.euclid_plus.apply(w.pbar);
   record_momentum_offset(w);
   w.q_offset = w.q - w.q_standard;

@@ -28,6 +28,10 @@ struct VariationalSettings {
   // Predictor: the standard layer's step Φ_h(w_k) for (q, v) and Π(M·V⁺) for p⁺, each corrected
   // by the previous step's difference between solution and prediction (else uncorrected).
   bool predictor_offsets = true;
+  // Also stop when the update about to be applied is predicted to land within the tolerance
+  // (contraction factor × ‖δ‖, the factor being the largest seen in this and the last step); the
+  // step then ends with a forward pass at the updated point instead of another residual.
+  bool predicted_stop = true;
 
   // From [integrator]; InputError for a bad bias or projection. `file` names the config in errors.
   static VariationalSettings from_config(const IntegratorConfig& config, const std::string& file = "[integrator]");
@@ -64,7 +68,8 @@ class VariationalIntegrator : public Integrator {
   void forward_segments(Work& w, const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr);
   void residual(Work& w, const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step);
   void predict(Work& w, const State& state, long step);
-  void update(Work& w, int iteration, long step, double relaxation);
+  // Applies (δq, δv, δp) scaled by `relaxation` (Anderson-mixed unless `plain`) and returns to TQ.
+  void update(Work& w, int iteration, long step, double relaxation, bool plain = false);
   void write_state(Work& w, State& state) const;
   void record_momentum_offset(Work& w) const;
 

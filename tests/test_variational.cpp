@@ -421,22 +421,29 @@ TEST(Cost, EvaluationsPerIteration) {
   // needs none). Bias [−½, ½]: the predictor Φ_h shares its first stage with the accepted
   // segments (3 evaluations); per iteration 4 + 3 evaluations and 3 + 3 − 1 products (the two
   // segments' start points share one).
-  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
-    ViRun run("two_dimers", make_settings("rk4", "rk4", 0.02, am, ap, "euclidean", 1e-10));
-    ForceField& ff = run.engine->force_field;
-    for (int k = 0; k < 5; ++k) {
-      const long f0 = ff.force_evaluations(), h0 = ff.hessian_evaluations();
-      const int it = run.step().iterations;
-      const long forces = ff.force_evaluations() - f0, products = ff.hessian_evaluations() - h0;
-      if (am == 0) {
-        EXPECT_EQ(forces, 1 + 3 * it);
-        EXPECT_EQ(products, 3 * it);
-      } else {
-        EXPECT_EQ(forces, 3 + 7 * it);
-        EXPECT_EQ(products, 5 * it);
+  // A predicted stop ends the step with one more forward pass (3 or 7 evaluations) instead.
+  int predicted_stops = 0;
+  for (bool predicted : {false, true}) {
+    for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+      auto settings = make_settings("rk4", "rk4", 0.02, am, ap, "euclidean", 1e-10);
+      settings.predicted_stop = predicted;
+      ViRun run("two_dimers", settings);
+      ForceField& ff = run.engine->force_field;
+      for (int k = 0; k < 20; ++k) {
+        const long f0 = ff.force_evaluations(), h0 = ff.hessian_evaluations();
+        const int it = run.step().iterations;
+        const long forces = ff.force_evaluations() - f0, products = ff.hessian_evaluations() - h0;
+        const long per_iteration = am == 0 ? 3 : 7, first = am == 0 ? 1 : 3;
+        const bool finished_forward = forces == first + per_iteration * (it + 1);
+        predicted_stops += finished_forward;
+        if (!predicted || !finished_forward) {
+          EXPECT_EQ(forces, first + per_iteration * it);
+        }
+        EXPECT_EQ(products, (am == 0 ? 3 : 5) * it);
       }
     }
   }
+  EXPECT_GT(predicted_stops, 0);
 }
 
 // ---------------------------------------------------------------- the projected RK baseline ("rk")
