@@ -63,9 +63,16 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
 
 double NeighborList::max_displacement(const Coords& q) const {
   if (builds_ == 0 || q.cols() != n_atoms_) return INFINITY;
+  // One thread: this runs before every evaluation and costs about as much as starting a team.
+  const double* now = q.data();
+  const double* then = q_at_build_.data();
   double max_d2 = 0;
-#pragma omp parallel for reduction(max : max_d2) schedule(static) if (n_atoms_ >= kParallelAtoms)
-  for (int i = 0; i < n_atoms_; ++i) max_d2 = std::max(max_d2, (q.col(i) - q_at_build_.col(i)).squaredNorm());
+#pragma omp simd reduction(max : max_d2)
+  for (int i = 0; i < n_atoms_; ++i) {
+    const double dx = now[3 * i] - then[3 * i], dy = now[3 * i + 1] - then[3 * i + 1],
+                 dz = now[3 * i + 2] - then[3 * i + 2];
+    max_d2 = std::max(max_d2, dx * dx + dy * dy + dz * dz);
+  }
   return std::sqrt(max_d2);
 }
 
@@ -374,7 +381,7 @@ void NeighborList::collect_excluded_pairs() {
 
 void NeighborList::pack_positions(const Coords& q, double* x, double* y, double* z) const {
   const int n = n_slots();
-#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
+#pragma omp for schedule(static)
   for (int s = 0; s < n; ++s) {
     const int a = slot_atom_[s];
     if (a < 0) {
@@ -389,7 +396,7 @@ void NeighborList::pack_positions(const Coords& q, double* x, double* y, double*
 
 void NeighborList::pack_vectors(const Coords& u, double* x, double* y, double* z) const {
   const int n = n_slots();
-#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
+#pragma omp for schedule(static)
   for (int s = 0; s < n; ++s) {
     const int a = slot_atom_[s];
     if (a < 0) {

@@ -66,6 +66,8 @@ class NeighborList {
   const std::vector<int>& atom_slot() const { return atom_slot_; }
 
   // Positions in slot order, each shifted by its atom's build-time image offset (SoA; padding 0).
+  // Both packers are OpenMP worksharing loops: called inside a parallel region they share the
+  // work (and end with a barrier), called outside one they run on the calling thread.
   void pack_positions(const Coords& q, double* x, double* y, double* z) const;
   // Any per-atom 3-vector (e.g. the direction of a Hessian–vector product) in slot order, unshifted.
   void pack_vectors(const Coords& u, double* x, double* y, double* z) const;

@@ -326,10 +326,11 @@ void NonbondedPairTerm::ensure_buffers() {
     if (b.size() != size) b.resize(size);
 }
 
-// Runs kernel(thread, n_threads, fx, fy, fz) on every thread with a zeroed private buffer, then
-// adds the buffers, in thread order, to out.
-template <class Kernel>
-void NonbondedPairTerm::run_parallel(Kernel&& kernel, Coords& out) {
+// Runs pack() (worksharing loops that fill the slot arrays), then kernel(thread, n_threads, fx, fy,
+// fz) on every thread with a zeroed private buffer, then adds the buffers, in thread order, to out:
+// one parallel region per evaluation.
+template <class Pack, class Kernel>
+void NonbondedPairTerm::run_parallel(Pack&& pack, Kernel&& kernel, Coords& out) {
   ensure_buffers();
   const int n = list_.n_slots();
   const auto& slot_atom = list_.slot_atom();
@@ -337,6 +338,7 @@ void NonbondedPairTerm::run_parallel(Kernel&& kernel, Coords& out) {
   constexpr std::size_t kParallelEntries = 2048;
 #pragma omp parallel if (list_.entries().size() >= kParallelEntries)
   {
+    pack();
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
     double* buffer = thread_buffers_[t].data();
     std::fill(buffer, buffer + 3 * static_cast<std::size_t>(n), 0.0);
@@ -405,7 +407,6 @@ constexpr int kExcludedBlock = 1024;
 
 void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
   prepare(q);
-  list_.pack_positions(q, x_.data(), y_.data(), z_.data());
   const PairView view{x_.data(),
                       y_.data(),
                       z_.data(),
@@ -432,15 +433,15 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
   std::uint32_t* inside_masks = hessian_requested_ ? record_inside_masks(q).data() : nullptr;
-  run_parallel(
-      [&](int t, int nt, double* fx, double* fy, double* fz) {
-        const auto [h0, h1] = half_block(half_start, t, nt);
-        pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
-        for (int b = t; b < n_blocks; b += nt)
-          block_coulomb[b] =
-              excluded_forces(view, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
-      },
-      f);
+  run_parallel([&] { list_.pack_positions(q, x_.data(), y_.data(), z_.data()); },
+               [&](int t, int nt, double* fx, double* fy, double* fz) {
+                 const auto [h0, h1] = half_block(half_start, t, nt);
+                 pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
+                 for (int b = t; b < n_blocks; b += nt)
+                   block_coulomb[b] = excluded_forces(view, b * kExcludedBlock,
+                                                      std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
+               },
+               f);
   double lj_sum = 0, coulomb_sum = self_energy_;
   for (int h = 0; h < n_halves; ++h) lj_sum += half_lj[h];
   for (int h = 0; h < n_halves; ++h) coulomb_sum += half_coulomb[h];
@@ -452,8 +453,6 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
 void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
   hessian_requested_ = true;
   prepare(q);
-  list_.pack_positions(q, x_.data(), y_.data(), z_.data());
-  list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
   const PairView view{x_.data(),
                       y_.data(),
                       z_.data(),
@@ -483,6 +482,10 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
     masks = list_masks_.data();
   }
   run_parallel(
+      [&] {
+        list_.pack_positions(q, x_.data(), y_.data(), z_.data());
+        list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
+      },
       [&](int t, int nt, double* ox, double* oy, double* oz) {
         const auto [h0, h1] = half_block(half_start, t, nt);
         pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);

@@ -60,8 +60,8 @@ class NonbondedPairTerm : public ForceTerm {
   static bool same_positions(const Coords& a, const Coords& b);
   void refresh_layout();  // slot-ordered charges and types after a list rebuild
   void ensure_buffers();
-  template <class Kernel>
-  void run_parallel(Kernel&& kernel, Coords& out);
+  template <class Pack, class Kernel>
+  void run_parallel(Pack&& pack, Kernel&& kernel, Coords& out);
 
   int n_atoms_;
   VdwModifier modifier_;
