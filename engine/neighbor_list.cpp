@@ -21,7 +21,6 @@ constexpr int kCluster = NeighborList::kClusterSize;
 // (small systems are evaluated very often by the variational integrators).
 constexpr int kParallelAtoms = 4096;
 constexpr int kHalf = NeighborList::kHalfSize;
-constexpr const unsigned* kLaneBit = NeighborList::kLaneBit;
 
 // The half list keeps an image of a cluster paired with itself only for one of ±shift.
 bool is_positive_image(const Eigen::Vector3i& n) {
@@ -182,7 +181,7 @@ void NeighborList::bin_atoms(const Coords& q) {
   for (int s = 0; s < n_slots(); ++s) {
     const int a = slot_atom_[s];
     if (a < 0) continue;
-    cluster_occupancy_[s / kCluster] |= kLaneBit[s % kCluster];
+    cluster_occupancy_[s / kCluster] |= 1u << (s % kCluster);
     for (int k = 0; k < 3; ++k) slot_wrapped_[k][s] = wrapped_(k, a);
   }
   // Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half

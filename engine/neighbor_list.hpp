@@ -3,9 +3,9 @@
 //
 // Atoms are binned into x-y columns, sorted by z inside each column and cut into clusters of
 // kClusterSize atoms (the last cluster of a column is padded). The list holds, for every
-// half-cluster i (kHalfSize atoms), the j-clusters whose bounding boxes lie within
-// cutoff + skin of it, each with a periodic shift and a bit mask of the atom pairs that interact
-// (padding, exclusions and double counting removed). Every atom pair is listed once.
+// half-cluster i (kHalfSize atoms), the j-clusters with an atom within cutoff + skin of one of
+// its atoms, each with a periodic shift and a bit mask of those atom pairs (padding, exclusions
+// and double counting removed). Every atom pair is listed once.
 //
 // Positions are never wrapped by the integrators. At a build each atom gets the image offset that
 // puts it into the box; the same offsets are used until the next build, so the packed
@@ -25,9 +25,6 @@ class NeighborList {
  public:
   static constexpr int kClusterSize = 8;  // j-cluster: one 8-wide SIMD vector of doubles
   static constexpr int kHalfSize = kClusterSize / 2;
-  // Bit of lane jj in a mask row, as a table: GCC 12 vectorises (row & kLaneBit[jj]) but not the
-  // equivalent (row >> jj) & 1.
-  alignas(64) static constexpr unsigned kLaneBit[kClusterSize] = {1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u};
 
   struct Entry {
     int j_cluster;
