@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <fstream>
 #include <sstream>
 
@@ -14,6 +16,17 @@
 #include "integrators/projected_rk.hpp"
 #include "integrators/registry.hpp"
 #include "integrators/variational.hpp"
+
+// Counts heap allocations, to check that steady-state iterations allocate nothing.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+static long g_allocations = 0;
+void* operator new(std::size_t size) {
+  ++g_allocations;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace vimd {
 namespace {
@@ -444,6 +457,23 @@ TEST(Cost, EvaluationsPerIteration) {
     }
   }
   EXPECT_GT(predicted_stops, 0);
+}
+
+TEST(Cost, SteadyStateIterationsDoNotAllocate) {
+  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+    for (int depth : {0, 4}) {
+      auto settings = make_settings("rk4", "rk4", 0.05, am, ap, "mass", 1e-12);
+      settings.anderson_depth = depth;
+      ViRun run("two_dimers", settings);
+      for (int k = 0; k < 3; ++k) run.step();
+      const long before = g_allocations;
+      int iterations = 0;
+      for (int k = 0; k < 5; ++k) iterations += run.step().iterations;
+      // One allocation per step: the diagnostics vector of the StepReport returned by value.
+      EXPECT_EQ(g_allocations - before, 5) << "bias [" << am << ", " << ap << "], Anderson depth " << depth;
+      EXPECT_GE(iterations, 10) << "several iterations per step";
+    }
+  }
 }
 
 // ---------------------------------------------------------------- the projected RK baseline ("rk")
