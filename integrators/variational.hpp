@@ -65,7 +65,8 @@ class VariationalIntegrator : public Integrator {
  private:
   struct Work;
   Work& work(Problem& problem, const char* caller);
-  void forward_segments(Work& w, const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr);
+  void forward_segments(Work& w, const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr,
+                        bool plus_only = false);
   void residual(Work& w, const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step);
   void predict(Work& w, const State& state, long step);
   // Applies (δq, δv, δp) scaled by `relaxation` (Anderson-mixed unless `plain`) and returns to TQ.

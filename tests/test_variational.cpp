@@ -434,7 +434,7 @@ TEST(Cost, EvaluationsPerIteration) {
   // needs none). Bias [−½, ½]: the predictor Φ_h shares its first stage with the accepted
   // segments (3 evaluations); per iteration 4 + 3 evaluations and 3 + 3 − 1 products (the two
   // segments' start points share one).
-  // A predicted stop ends the step with one more forward pass (3 or 7 evaluations) instead.
+  // A predicted stop ends the step with one more forward pass of the ∂⁺ segment (3 or 4 evaluations).
   int predicted_stops = 0;
   for (bool predicted : {false, true}) {
     for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
@@ -447,7 +447,7 @@ TEST(Cost, EvaluationsPerIteration) {
         const int it = run.step().iterations;
         const long forces = ff.force_evaluations() - f0, products = ff.hessian_evaluations() - h0;
         const long per_iteration = am == 0 ? 3 : 7, first = am == 0 ? 1 : 3;
-        const bool finished_forward = forces == first + per_iteration * (it + 1);
+        const bool finished_forward = forces == first + per_iteration * it + (am == 0 ? 3 : 4);
         predicted_stops += finished_forward;
         if (!predicted || !finished_forward) {
           EXPECT_EQ(forces, first + per_iteration * it);
