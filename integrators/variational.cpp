@@ -411,7 +411,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     // cycle across a jump repeats every other iteration): damp; good progress: undamp.
     if (err > kNoProgress * before_previous)
       relaxation = std::max(0.5 * relaxation, kMinRelaxation);
-    else if (err < previous)
+    else if (err < 0.5 * previous)
       relaxation = std::min(2 * relaxation, 1.0);
     // Settled on a jump: the iterate moves by less than the tolerance while the residual, which
     // cannot vanish there, stays within kJumpFactor of it.

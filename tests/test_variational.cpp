@@ -408,6 +408,71 @@ TEST(Settings, BadBiasAndUnknownMethodsAreInputErrors) {
   EXPECT_GT(s.tolerance, 0);
 }
 
+// A harmonic well plus a fine triangle wave in x (period 2ε, slope ±a): the force jumps by 2a
+// wherever a stage crosses a multiple of ε, as forces do where pairs cross a cut-off. The step
+// equations then have no exact root; the iteration must settle on the jumps when they are small
+// against the tolerance and fail clearly when they are not.
+class RoughWell : public ForceTerm {
+ public:
+  RoughWell(double slope, double period) : slope_(slope), period_(period) {}
+  std::vector<std::string> energy_names() const override { return {"rough"}; }
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies) override {
+    for (int i = 0; i < q.cols(); ++i) {
+      const double phase = q(0, i) / period_, cell = std::floor(phase), sign = static_cast<long>(cell) % 2 ? -1 : 1;
+      energies[0] += 0.5 * q.col(i).squaredNorm() + sign * slope_ * period_ * (phase - cell);
+      f.col(i) -= q.col(i);
+      f(0, i) -= sign * slope_;
+    }
+  }
+  void add_hessian_vector(const Coords&, const Coords& u, Coords& out) override { out += u; }
+
+ private:
+  double slope_, period_;
+};
+
+TEST(Failure, ResidualJumpsSettleWhenSmallAndFailClearlyWhenNot) {
+  // Slope 0: smooth, never settles on a jump; 1e-5: residual jumps of ~1e-9 against a tolerance
+  // of 1e-10 (within the 100x allowance); 1e-2: jumps of ~1e-6, beyond it.
+  for (double slope : {0.0, 1e-5, 1e-2}) {
+    System system;
+    system.mass = Eigen::VectorXd::Ones(1);
+    system.molecule = {0};
+    ForceField field;
+    field.add(std::make_unique<RoughWell>(slope, 1e-12));
+    Constraints constraints({}, 1, Box{});
+    Problem problem{system, field, constraints, system.mass};
+    State state;
+    state.q = Coords::Zero(3, 1);
+    state.q.col(0) << 0.3, 0.1, 0.0;
+    state.v = Coords::Zero(3, 1);
+    state.v.col(0) << 0.2, -0.4, 0.1;
+    auto settings = make_settings("rk4", "rk4", 0.1, 0, 1, "euclidean", 1e-10);
+    VariationalIntegrator vi(settings);
+    vi.init(problem, state);
+    int jumps = 0;
+    bool failed = false;
+    try {
+      for (int k = 0; k < 20; ++k) {
+        StepReport r = vi.step(problem, state);
+        ++state.step;
+        jumps += r.diagnostics[2] == 1;
+        EXPECT_LE(r.residual, 100 * settings.tolerance);
+      }
+    } catch (const ConvergenceError& e) {
+      failed = true;
+      EXPECT_NE(std::string(e.what()).find("stopped decreasing"), std::string::npos) << e.what();
+      EXPECT_GT(e.residual(), 100 * settings.tolerance);
+    }
+    std::printf("  force jumps 2x%g: %d of 20 steps settled on a jump%s\n", slope, jumps, failed ? ", then failed" : "");
+    EXPECT_EQ(failed, slope == 1e-2);
+    if (slope == 0) {
+      EXPECT_EQ(jumps, 0);
+    } else if (slope == 1e-5) {
+      EXPECT_GT(jumps, 5);
+    }
+  }
+}
+
 // ---------------------------------------------------------------- Anderson acceleration
 TEST(Anderson, SameSolutionAsPlainIteration) {
   for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
