@@ -38,8 +38,7 @@ struct ProjectedRungeKutta::Work {
 
 ProjectedRungeKutta::ProjectedRungeKutta(ButcherTableau tableau, double dt, std::string projection)
     : tableau_(std::move(tableau)), dt_(dt), projection_(std::move(projection)) {
-  if (projection_ != "euclidean" && projection_ != "mass")
-    throw InputError("[integrator]", 0, "projection must be \"euclidean\" or \"mass\", not \"" + projection_ + "\"");
+  check_projection_kind(projection_);
 }
 
 ProjectedRungeKutta::ProjectedRungeKutta(const IntegratorConfig& config)

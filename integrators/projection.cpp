@@ -28,14 +28,15 @@ void TangentProjector::apply(Coords& u, Eigen::VectorXd* mu) {
   constraints_.add_GT(q_, mu_, u, inverse_weights_);
 }
 
+void check_projection_kind(const std::string& kind) {
+  if (kind != "euclidean" && kind != "mass")
+    throw InputError("[integrator]", 0, "projection must be \"euclidean\" or \"mass\", not \"" + kind + "\"");
+}
+
 Projection::Projection(const Constraints& constraints, const Eigen::VectorXd& inverse_mass, const std::string& kind)
     : constraints_(constraints) {
-  if (kind == "euclidean")
-    inverse_weights_ = Eigen::VectorXd::Ones(inverse_mass.size());
-  else if (kind == "mass")
-    inverse_weights_ = inverse_mass;
-  else
-    throw InputError("[integrator]", 0, "projection must be \"euclidean\" or \"mass\", not \"" + kind + "\"");
+  check_projection_kind(kind);
+  inverse_weights_ = kind == "mass" ? inverse_mass : Eigen::VectorXd::Ones(inverse_mass.size());
   length_scale_ = std::numeric_limits<double>::infinity();
   for (const auto& c : constraints.list()) length_scale_ = std::min(length_scale_, c.length);
 }

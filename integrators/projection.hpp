@@ -34,6 +34,9 @@ struct ProjectedPoint {
   int iterations = 0;
 };
 
+// InputError unless `kind` is "euclidean" or "mass".
+void check_projection_kind(const std::string& kind);
+
 class Projection {
  public:
   // `kind` is "euclidean" (W = I) or "mass" (W = M).

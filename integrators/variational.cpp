@@ -43,10 +43,9 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
     throw InputError(file, 0,
                      "bias = [" + std::to_string(s.alpha_minus) + ", " + std::to_string(s.alpha_plus) +
                          "] must satisfy -1 <= alpha_minus <= 0 <= alpha_plus <= 1 and alpha_plus - alpha_minus = 1");
-  if (config.projection != "euclidean" && config.projection != "mass")
-    throw InputError(file, 0, "projection must be \"euclidean\" or \"mass\", not \"" + config.projection + "\"");
+  check_projection_kind(config.projection);
   s.projection = config.projection;
-  s.tolerance = config.solver_tolerance ? *config.solver_tolerance : default_solver_tolerance(s.plus, s.alpha_minus);
+  s.tolerance = config.solver_tolerance ? *config.solver_tolerance : default_solver_tolerance(s.alpha_minus);
   s.max_iterations = config.max_iterations;
   if (config.acceleration == "anderson")
     s.anderson_depth = 4;
@@ -55,12 +54,11 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
   return s;
 }
 
-double default_solver_tolerance(const ButcherTableau& plus, double alpha_minus) {
+double default_solver_tolerance(double alpha_minus) {
   // Calibrated on 901 SPC/E waters at 2 fs (LJ potential-switch + reaction field): for rk4 and rk6
   // with bias [0, 1], 1e-6 nm/ps gives the energy fluctuation and drift of 1e-8; with α⁻ < 0 the
   // two segments' errors add and 1e-7 is needed (1e-6 raised the fluctuation by 3%). Lower-order
   // methods have larger truncation errors, so the same values are safe for them.
-  (void)plus;
   return alpha_minus == 0 ? 1e-6 : 1e-7;
 }
 
