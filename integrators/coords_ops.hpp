@@ -17,6 +17,13 @@ void for_each_atom(int n, F&& f) {
   for (int i = 0; i < n; ++i) f(i);
 }
 
+// dst = expr (any Eigen expression of dst's shape, dst already sized), atoms in parallel. Column-wise
+// evaluation makes expressions that read dst itself (dst = −dst, dst += u) safe.
+template <class Expr>
+void parallel_assign(Coords& dst, const Expr& expr) {
+  for_each_atom(static_cast<int>(dst.cols()), [&](int i) { dst.col(i) = expr.col(i); });
+}
+
 // max_i scale(i)·‖u_i‖_∞, or +∞ when any entry is not finite (so a NaN never passes a test).
 template <class Scale>
 double max_abs_scaled(const Coords& u, Scale&& scale) {

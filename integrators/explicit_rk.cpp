@@ -66,11 +66,12 @@ void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, 
   const Eigen::VectorXd& mass = dynamics.mass();
   k_q_bar_.resize(3, n);
   k_v_bar_.resize(3, n);
-  q_bar = q_seed;
-  if (v_seed)
-    v_bar = *v_seed;
-  else
-    v_bar.setZero(3, n);
+  q_bar.resize(3, n);
+  v_bar.resize(3, n);
+  for_each_atom(n, [&](int i) {
+    q_bar.col(i) = q_seed.col(i);
+    v_bar.col(i) = v_seed ? Vec3(v_seed->col(i)) : Vec3::Zero();
+  });
 
   for (int k = s - 1; k >= 0; --k) {
     const DynamicsPoint& stage = seg.stages[k];

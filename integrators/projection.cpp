@@ -43,7 +43,8 @@ Projection::Projection(const Constraints& constraints, const Eigen::VectorXd& in
 
 void Projection::project(const Coords& y, ProjectedPoint& out, long step) {
   constexpr int kMaxIterations = 50;
-  out.x = y;
+  out.x.resize(3, y.cols());
+  parallel_assign(out.x, y);
   out.iterations = 0;
   const int d = constraints_.size();
   out.theta.setZero(d);
@@ -64,17 +65,17 @@ void Projection::project(const Coords& y, ProjectedPoint& out, long step) {
                              "the step moved the positions too far from the constraint surface");
     ++out.iterations;
     // R1 = x + W⁻¹Gᵀθ − y,  R2 = g(x);  dθ = S⁻¹(R2 − G R1),  dx = −R1 − W⁻¹Gᵀdθ.
-    r1_ = out.x - y;
+    parallel_assign(r1_, out.x - y);
     constraints_.add_GT(out.x, out.theta, r1_, w);
     constraints_.residuals(out.x, g_);
     constraints_.factorize(out.x, out.x, w, out.s_factor);
     constraints_.apply_G(out.x, r1_, gr_);
     dtheta_ = g_ - gr_;
     out.s_factor.solve(dtheta_);
-    dx_ = -r1_;
+    parallel_assign(dx_, -r1_);
     gr_ = -dtheta_;
     constraints_.add_GT(out.x, gr_, dx_, w);
-    out.x += dx_;
+    parallel_assign(out.x, out.x + dx_);
     out.theta += dtheta_;
     change = max_abs(dx_);
   }
@@ -82,7 +83,8 @@ void Projection::project(const Coords& y, ProjectedPoint& out, long step) {
 
 void Projection::pull_back(const ProjectedPoint& point, const Coords& p, Coords& p_hat, long step) {
   constexpr int kMaxSweeps = 20;
-  p_hat = p;
+  p_hat.resize(3, p.cols());
+  parallel_assign(p_hat, p);
   const int d = constraints_.size();
   if (d == 0) return;
   const int n = static_cast<int>(p.cols());
@@ -99,7 +101,7 @@ void Projection::pull_back(const ProjectedPoint& point, const Coords& p, Coords&
     // r1 = p − (I + Σθ_a H_a W⁻¹) p̂ − Gᵀb,  r2 = −G W⁻¹ p̂;
     // correction from [[I, Gᵀ], [G W⁻¹, 0]]: db = S⁻¹(G W⁻¹ r1 − r2), dp = r1 − Gᵀ db.
     for_each_atom(n, [&](int i) { scaled_.col(i) = w[i] * p_hat.col(i); });
-    r1_ = p - p_hat;
+    parallel_assign(r1_, p - p_hat);
     gr_ = -point.theta;
     constraints_.add_H(gr_, scaled_, r1_);
     gr_ = -b_;
@@ -112,7 +114,7 @@ void Projection::pull_back(const ProjectedPoint& point, const Coords& p, Coords&
     b_ += db_;
     gr_ = -db_;
     constraints_.add_GT(x, gr_, r1_);
-    p_hat += r1_;
+    parallel_assign(p_hat, p_hat + r1_);
     if (max_abs(r1_) <= tolerance) return;
   }
   throw ConvergenceError("covector pull-back through the projection", step, kMaxSweeps, max_abs(r1_),

@@ -147,7 +147,7 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
                                      const Coords& p_minus, long step) {
   const int n = static_cast<int>(q.cols());
   w.projection.pull_back(w.proj_plus, p_plus, w.p_hat, step);
-  w.p_hat = -w.p_hat;
+  parallel_assign(w.p_hat, -w.p_hat);
   if (settings_.alpha_minus != 0) {
     // Both segments start at q: one Hessian–vector product there serves both reverse passes.
     w.start_direction.setZero();
@@ -161,7 +161,7 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
     });
   } else {
     w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v);
-    w.rho_q += p_minus;
+    parallel_assign(w.rho_q, w.rho_q + p_minus);
   }
   const Constraints& c = w.problem->constraints;
   if (c.empty()) return;
@@ -178,7 +178,7 @@ void VariationalIntegrator::record_momentum_offset(Work& w) const {
   const Eigen::VectorXd& mass = w.problem->system.mass;
   for_each_atom(static_cast<int>(w.q.cols()), [&](int i) { w.p_offset.col(i) = mass[i] * w.seg_plus.v.col(i); });
   w.euclid_plus.apply(w.p_offset);
-  w.p_offset = w.pbar - w.p_offset;
+  parallel_assign(w.p_offset, w.pbar - w.p_offset);
 }
 
 void VariationalIntegrator::write_state(Work& w, State& state) const {
@@ -246,28 +246,28 @@ void VariationalIntegrator::predict(Work& w, const State& state, long step) {
   const double h = settings_.dt;
   if (settings_.alpha_minus == 0) {
     // ∂⁻(w) = q, so q = q̄ exactly; the accepted ∂⁺ segment is the standard step Φ_h(w_k).
-    w.q = w.qbar;
-    w.v = w.seg_plus.v;
+    parallel_assign(w.q, w.qbar);
+    parallel_assign(w.v, w.seg_plus.v);
   } else {
     // The standard layer's own step Φ_h(w_k), its first stage shared with the accepted segments.
     w.plus.forward(w.dynamics, state.q, state.v, h, w.seg_predict, &w.seg_plus.stages[0].forces);
     w.projection.project(w.seg_predict.q, w.proj_q, step);
-    w.q = w.proj_q.x;
-    w.v = w.seg_predict.v;
+    parallel_assign(w.q, w.proj_q.x);
+    parallel_assign(w.v, w.seg_predict.v);
   }
   w.mass_q.set_point(w.q);
   w.mass_q.apply(w.v);
-  w.q_standard = w.q;
-  w.v_standard = w.v;
+  parallel_assign(w.q_standard, w.q);
+  parallel_assign(w.v_standard, w.v);
   if (!settings_.predictor_offsets) return;
   // The solution differs from the standard step by a smooth O(h^{p+1}) amount: add last step's.
   if (settings_.alpha_minus != 0) {
-    w.trial = w.q + w.q_offset;
+    parallel_assign(w.trial, w.q + w.q_offset);
     w.projection.project(w.trial, w.proj_q, step);
-    w.q = w.proj_q.x;
+    parallel_assign(w.q, w.proj_q.x);
     w.mass_q.set_point(w.q);
   }
-  w.v += w.v_offset;
+  parallel_assign(w.v, w.v + w.v_offset);
   w.mass_q.apply(w.v);
 }
 
@@ -276,9 +276,11 @@ void VariationalIntegrator::update(Work& w, int iteration, long step, double rel
   const double h = settings_.dt;
   const Eigen::VectorXd& inverse_mass = w.problem->inverse_mass;
   if (relaxation < 1) {
-    w.dq *= relaxation;
-    w.dv *= relaxation;
-    w.dp *= relaxation;
+    for_each_atom(n, [&](int i) {
+      w.dq.col(i) *= relaxation;
+      w.dv.col(i) *= relaxation;
+      w.dp.col(i) *= relaxation;
+    });
     w.history_start = iteration;  // Anderson restarts after damping
   }
   // The plain update: q ← P(q + δq), v ← M-orthogonal projection of v + δv at the new q, p⁺ ← p⁺ + δp.
@@ -286,22 +288,22 @@ void VariationalIntegrator::update(Work& w, int iteration, long step, double rel
     if (settings_.alpha_minus == 0) {
       // ∂⁻(w) = q: the position equation holds exactly with q = q̄ (and the tangent projector
       // is already there), so the forces at q stay valid through the iteration.
-      q_trial = w.qbar;
+      parallel_assign(q_trial, w.qbar);
     } else {
       w.projection.project(q_trial, w.proj_q, step);
-      q_trial = w.proj_q.x;
+      parallel_assign(q_trial, w.proj_q.x);
       w.mass_q.set_point(q_trial);
     }
     w.mass_q.apply(v_trial);
   };
-  w.trial = w.q + w.dq;
-  w.v_trial = w.v + w.dv;
+  parallel_assign(w.trial, w.q + w.dq);
+  parallel_assign(w.v_trial, w.v + w.dv);
   settle(w.trial, w.v_trial);
   const int depth = settings_.anderson_depth;
   if (depth == 0 || relaxation < 1 || plain) {
-    w.q = w.trial;
-    w.v = w.v_trial;
-    w.p_plus += w.dp;
+    parallel_assign(w.q, w.trial);
+    parallel_assign(w.v, w.v_trial);
+    parallel_assign(w.p_plus, w.p_plus + w.dp);
     return;
   }
   // Anderson mixing of the map T(x) = plain update of x, in x = (q/h, v, M⁻¹p) so the parts are
@@ -351,8 +353,8 @@ void VariationalIntegrator::update(Work& w, int iteration, long step, double rel
     w.p_plus.col(i) = x.segment<3>(6) / inverse_mass[i];
   });
   settle(w.trial, w.v_trial);
-  w.q = w.trial;
-  w.v = w.v_trial;
+  parallel_assign(w.q, w.trial);
+  parallel_assign(w.v, w.v_trial);
 }
 
 StepReport VariationalIntegrator::step(Problem& problem, State& state) {
@@ -443,13 +445,15 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   if (it > 1) w.contraction = std::min(contraction, 1.0);
 
   // Accept w: (q̄, p̄) ← (∂⁺(w), tangential part at ∂⁺(w) of p⁺ (+ δp when w was evaluated).
-  w.qbar = w.proj_plus.x;
-  w.pbar = w.p_plus;
-  if (!finished_by_update) w.pbar += w.dp;
+  parallel_assign(w.qbar, w.proj_plus.x);
+  if (finished_by_update)
+    parallel_assign(w.pbar, w.p_plus);
+  else
+    parallel_assign(w.pbar, w.p_plus + w.dp);
   w.euclid_plus.apply(w.pbar);
   record_momentum_offset(w);
-  w.q_offset = w.q - w.q_standard;
-  w.v_offset = w.v - w.v_standard;
+  parallel_assign(w.q_offset, w.q - w.q_standard);
+  parallel_assign(w.v_offset, w.v - w.v_standard);
   write_state(w, state);
 
   StepReport report;
