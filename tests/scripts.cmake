@@ -9,3 +9,9 @@ add_test(NAME cli_errors
 add_test(NAME gromacs_energy_agreement
          COMMAND ${PY} ${CMAKE_SOURCE_DIR}/validation/gromacs_energy.py)
 set_tests_properties(e2e_mdanalysis cli_errors gromacs_energy_agreement PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")
+# The validation study's --quick mode (issue 4): every section with tiny runs, then its report's
+# numbers are parsed and checked for sane ranges. Writes to the build tree, never to validation/report.
+add_test(NAME study_quick
+         COMMAND ${PY} ${CMAKE_SOURCE_DIR}/validation/check_report.py --run-quick
+                 --out ${CMAKE_BINARY_DIR}/report-quick --vimd $<TARGET_FILE:vimd>)
+set_tests_properties(study_quick PROPERTIES TIMEOUT 900)

@@ -119,6 +119,8 @@ def check_report(report_dir):
         if "command" not in header[-1] and "commands" not in header[-1]:
             continue
         for row in rows:
+            if any(cell.startswith("not run") for cell in row):
+                continue  # a step skipped after an unstable one: its dt is the only number
             has_numbers = any(number(cell) is not None for cell in row[1:-1])
             if has_numbers:
                 c.check(row[-1].startswith("`") and ("vimd" in row[-1] or "gmx" in row[-1]),

@@ -7,12 +7,28 @@ import subprocess
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 VIMD = ROOT / "build" / "vimd"
+RDTSCP_SHIM = ROOT / "build" / "libgmx_rdtscp_shim.so"
+
+
+def gmx_env(env=None):
+    """The environment for a gmx/gmx_d command. Debian's GROMACS refuses to start when CPUID does
+    not advertise rdtscp, which some VMs hide although the instruction works: there the shim built
+    next to vimd (validation/gmx_rdtscp_shim.cpp) is preloaded to add the flag."""
+    env = dict(os.environ if env is None else env)
+    flags = next((line for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines()
+                  if line.startswith("flags")), "")
+    if "rdtscp" not in flags.split():
+        if not RDTSCP_SHIM.is_file():
+            raise RuntimeError(f"this CPU hides the rdtscp flag and GROMACS needs {RDTSCP_SHIM}: build it "
+                               "(bash app/setup.sh)")
+        env["LD_PRELOAD"] = " ".join(filter(None, [env.get("LD_PRELOAD", ""), str(RDTSCP_SHIM)]))
+    return env
 
 
 def run(cmd, cwd, stdin=None):
     """Run a command, raising with its output when it fails. OMP_NUM_THREADS is dropped: mdrun
     refuses it when it disagrees with -nt."""
-    env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
+    env = gmx_env({k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"})
     p = subprocess.run(cmd, cwd=cwd, input=stdin, text=True, capture_output=True, env=env)
     if p.returncode != 0:
         raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")

@@ -55,6 +55,8 @@ def main():
     ap.add_argument("--threads", type=int, default=1,
                     help="OpenMP threads per run (default 1: on a shared machine two threads per run can be "
                          "several times slower, and one thread compares every integrator on equal footing)")
+    ap.add_argument("--vimd-source", default="",
+                    help="where the vimd binary was built from, for the report (e.g. 'git 3b2245f, clean export')")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse a run whose config, binary and thread count are unchanged (development aid)")
     ap.add_argument("--sections", default="scan,order,long",
@@ -85,7 +87,9 @@ def main():
 
     command = "validation/run_all.sh" + "".join(f" {a}" for a in sys.argv[1:])
     meta = {"command": command, "date": f"{datetime.datetime.now():%Y-%m-%d %H:%M}", "git": git_state(),
-            "vimd": relative(args.vimd), "vimd_state": vimd_state, "threads": args.threads,
+            "vimd": relative(args.vimd), "threads": args.threads, "reuse": args.reuse,
+            "vimd_state": f"{args.vimd_source}, {vimd_state}" if args.vimd_source else vimd_state,
+            "run_minutes": runner.run_seconds / 60,
             "minutes": (time.monotonic() - start) / 60, "load_before": load_before, "load_after": load(),
             "runs": relative(runs_dir), "closing_dts": {"water900": 2 * FS, "polymer": 10 * FS}}
     report.write(report_dir / "README.md", plan, meta, scan, order, long, md)

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from gmx_common import ROOT, write_mdp, nonbonded_mdp, gmx_energy, vimd_config
+from gmx_common import ROOT, write_mdp, nonbonded_mdp, gmx_energy, gmx_env, vimd_config
 from . import energy
 from .plan import fs, relative
 
@@ -42,6 +42,7 @@ class Runner:
         self.log = log
         stat = self.vimd_path.stat() if self.vimd_path.exists() else None
         self.binary_id = f"{stat.st_size}:{stat.st_mtime_ns}" if stat else "missing"
+        self.run_seconds = 0.0  # wall time of every run the report uses, as measured when it ran
 
     # ---------------------------------------------------------------- helpers
     def _env(self, omp):
@@ -50,7 +51,8 @@ class Runner:
         env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
         if omp:
             env["OMP_NUM_THREADS"] = str(self.threads)
-        return env
+            return env
+        return gmx_env(env)
 
     def _cached(self, key_file, key):
         if not (self.reuse and key_file.exists()):
@@ -102,6 +104,7 @@ class Runner:
             stored = {"key": key, "returncode": rc, "message": _last_words(text) if rc else "", "wall": wall}
             key_file.write_text(json.dumps(stored))
         result["wall_measured"] = stored["wall"]
+        self.run_seconds += stored["wall"]
         if stored["returncode"] != 0:
             produced = (out / "energy.csv").exists() and len(energy.read_energy_csv(out / "energy.csv")["time"]) > 0
             rejected = not produced and REJECTION.search(stored["message"])
@@ -180,6 +183,7 @@ class Runner:
                 wall = float(found.group(1)) if found else wall
             stored = {"key": key, "returncode": rc, "message": _last_words(text) if rc else "", "wall": wall}
             key_file.write_text(json.dumps(stored))
+        self.run_seconds += stored["wall"]
         if stored["returncode"] != 0:
             result["status"], result["message"] = "failed", stored["message"]
             return result
@@ -207,7 +211,7 @@ class Runner:
         traj = out / ("traj.trr" if run["kind"] == "vimd" else "gmx.trr")
         args = [binary, "traj", "-f", str(traj), "-s", str(structure), "-ox", str(xvg), "-fp", "-nopbc",
                 "-b", f"{at_time - 1e-5:.6f}", "-e", f"{at_time + 1e-5:.6f}"]
-        p = subprocess.run(args, cwd=out, input="0\n", text=True, capture_output=True)
+        p = subprocess.run(args, cwd=out, input="0\n", text=True, capture_output=True, env=gmx_env())
         if p.returncode != 0 or not xvg.exists():
             raise RuntimeError(f"{' '.join(args)} failed: {_last_words(p.stdout + p.stderr)}")
         rows = [l.split() for l in xvg.read_text().splitlines() if l and l[0] not in "#@"]

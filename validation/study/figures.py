@@ -163,6 +163,7 @@ def order(rows, reference_error, path):
 def long_runs(series, path, window_ps=1.0):
     """E(t) - E(0) of the long runs: raw (top) and a running mean over window_ps (bottom)."""
     fig, axes = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
+    extents = {}
     for key, (label, t, e) in series.items():
         de = e - e[0]
         axes[0].plot(t, de, label=label, linewidth=0.6, color=_style(key)["color"])
@@ -171,8 +172,17 @@ def long_runs(series, path, window_ps=1.0):
             smooth = np.convolve(de, np.ones(n) / n, mode="valid")
             axes[1].plot(t[n - 1:], smooth, label=label, linewidth=1.5, color=_style(key)["color"],
                          linestyle=_style(key)["linestyle"])
+            extents[label] = float(np.max(np.abs(smooth)))
+    # Zoom the lower panel onto the bounded runs when one run's drift dwarfs them.
+    ranked = sorted(extents.items(), key=lambda kv: kv[1], reverse=True)
+    zoom = ""
+    if len(ranked) >= 2 and ranked[1][1] > 0 and ranked[0][1] > 10 * ranked[1][1]:
+        limit = 1.5 * ranked[1][1]
+        axes[1].set_ylim(-limit, limit)
+        zoom = f" (zoomed; {ranked[0][0]} leaves the range)"
     axes[0].set_ylabel("E_total(t) - E_total(0) (kJ/mol)")
     axes[1].set_ylabel(f"running mean over {window_ps:g} ps (kJ/mol)")
+    axes[1].set_title(f"Running mean over {window_ps:g} ps{zoom}", fontsize=10)
     axes[1].set_xlabel("time (ps)")
     for ax in axes:
         ax.grid(True, alpha=0.3)

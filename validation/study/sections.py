@@ -166,6 +166,12 @@ def long_runs(runner, plan, report_dir, log):
         if "stats" in r:
             s = series_of(r)
             curves[key] = (r["label"], s["time"], s["total"])
+        elif (ROOT / r["out"] / "energy.csv.partial").exists():
+            # a run that stopped with an error: vimd keeps its output up to that point
+            s = energy.read_energy_csv(ROOT / r["out"] / "energy.csv.partial")
+            if len(s["time"]) > 1:
+                r["stopped_at"] = float(s["time"][-1])
+                curves[key] = (f"{r['label']} (stopped at {s['time'][-1]:g} ps)", s["time"], s["total"])
     figures.long_runs(curves, report_dir / "long_runs.png")
     return {"system": system.name, "atoms": system.atoms, "forcefield": system.forcefield, "note": system.note,
             "dt": plan.long_dt, "ps": plan.long_ps, "frame_ps": frame * plan.long_dt, "runs": runs}
