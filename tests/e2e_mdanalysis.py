@@ -38,3 +38,13 @@ assert np.max(np.abs(oh - 1.0)) < 1e-5, np.max(np.abs(oh - 1.0))
 summary = json.loads((out / "summary.json").read_text())
 assert summary["steps"] == 20 and summary["atoms"] == 648
 print(f"MDAnalysis read {u.trajectory.n_frames} frames of {len(u.atoms)} atoms; max |O-H - 0.1 nm| = {np.max(np.abs(oh - 1.0)) / 10:.1e} nm")
+
+# GROMACS's own reader accepts the trajectory too: double precision, every frame with x, v, f and box.
+check = subprocess.run(["gmx", "check", "-f", str(out / "traj.trr")], capture_output=True, text=True)
+assert check.returncode == 0, check.stdout + check.stderr
+text = check.stdout + check.stderr
+assert "(double precision)" in text, text[-2000:]
+counts = {row.split()[0]: int(row.split()[1]) for row in text.splitlines()
+          if row.split()[:1] and row.split()[0] in ("Coords", "Velocities", "Forces", "Box")}
+assert counts == {"Coords": 5, "Velocities": 5, "Forces": 5, "Box": 5}, counts
+print(f"gmx check read the same {counts['Coords']} frames (double precision, x, v, f, box)")

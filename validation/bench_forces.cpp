@@ -1,10 +1,7 @@
 // Benchmark (prints figures, asserts nothing, not a test): cost of one force evaluation, one
 // Hessian–vector product (with and without the force pass's cut-off masks) and one neighbour-list
 // build for the system of a run file, on 1 and 2 OpenMP threads; best of several batches.
-// Build against a configured build directory, e.g.
-//   g++ -std=c++20 -O3 -march=native -fopenmp -I. -isystem /usr/include/eigen3 validation/bench_forces.cpp \
-//       build/libvimd_forcefields.a build/libvimd_engine.a $(pkg-config --libs tomlplusplus) -o /tmp/bench_forces
-//   /tmp/bench_forces inputs/water4000/run.toml
+//   cmake --build build --target bench_forces && build/bench_forces inputs/water4000/run.toml
 #include <omp.h>
 
 #include <algorithm>
