@@ -38,7 +38,7 @@ struct VariationalSettings {
 };
 
 // The default solver tolerance (nm/ps) for a bias, calibrated on SPC/E water at 2 fs: the loosest
-// value whose energy fluctuation and drift match a 100× tighter one (rk4 and rk6 alike).
+// value whose energy fluctuation and drift match a tighter one (validation/bench_vi).
 double default_solver_tolerance(double alpha_minus);
 
 class VariationalIntegrator : public Integrator {
