@@ -97,8 +97,10 @@ const std::vector<Tree>& trees_up_to(int max_order) {
 std::string tree_notation(const std::vector<Tree>& trees, int id) {
   if (trees[id].children.empty()) return "t";
   std::string s = "[";
-  for (std::size_t k = 0; k < trees[id].children.size(); ++k)
-    s += (k ? " " : "") + tree_notation(trees, trees[id].children[k]);
+  for (std::size_t k = 0; k < trees[id].children.size(); ++k) {
+    if (k) s += ' ';
+    s += tree_notation(trees, trees[id].children[k]);
+  }
   return s + "]";
 }
 
