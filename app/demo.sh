@@ -17,10 +17,12 @@ steps=${DEMO_STEPS:-1000}
 import json, sys, pathlib
 out = pathlib.Path(sys.argv[1])
 rows = [("RATTLE", "rattle"), ("VI(rk4, [0,1])", "vi_rk4")]
-print(f"\n{'integrator':<18}{'drift kJ/mol/ps/atom':>22}{'RMS fluct. kJ/mol':>19}{'ms/step':>10}{'force evals/step':>18}")
+print(f"\n{'integrator':<18}{'drift kJ/mol/ps/atom':>22}{'RMS fluct. kJ/mol':>19}{'ms/step':>10}"
+      f"{'force evals/step':>18}{'HVPs/step':>11}")
 for label, d in rows:
     s = json.loads((out / d / "summary.json").read_text())
     print(f"{label:<18}{s['drift_per_atom']:>22.3e}{s['rms_fluctuation']:>19.3e}"
-          f"{1e3 * s['wall_seconds'] / s['steps']:>10.2f}{s['force_evaluations_per_step']:>18.2f}")
+          f"{1e3 * s['wall_seconds'] / s['steps']:>10.2f}{s['force_evaluations_per_step']:>18.2f}"
+          f"{s['hessian_evaluations_per_step']:>11.2f}")
 print(f"\ntrajectories, energies (.xvg/.csv) and final structures are in {out}/*/")
 PY
