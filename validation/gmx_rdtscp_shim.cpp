@@ -34,7 +34,7 @@ class CpuInfo {
   std::string brand;
   int family, model, stepping;
   std::set<Feature> features;
-  std::vector<int> logical_processors;  // only its size matters: it is moved, never read here
+  std::vector<int> logical_processors;  // a vector's layout is its element type's; never read here
 };
 
 namespace {
