@@ -64,12 +64,17 @@ int run_command(const fs::path& config_file, const std::string& out_override, lo
   const long energy_every = config.output.energy_every;
   // The summary needs a series even when no energy file is written.
   const long summary_every = energy_every > 0 ? energy_every : std::max(1L, steps / 1000);
-  Simulation simulation(problem, *integrator, config.integrator.dt);
+  const bool minimize = config.integrator.type == "minimize";
+  // A minimiser's "time" counts its steps, as GROMACS writes it for energy minimisations.
+  Simulation simulation(problem, *integrator, minimize ? 1.0 : config.integrator.dt);
   if (energy_every > 0) simulation.add_observer(std::make_unique<EnergyWriter>(dir, energy_every));
   if (config.output.trajectory_every > 0)
     simulation.add_observer(std::make_unique<TrajectoryWriter>(dir, config.output.trajectory_every));
   simulation.add_observer(std::make_unique<FinalStructureWriter>(dir));
-  simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));
+  if (minimize)
+    simulation.add_observer(std::make_unique<MinimizationReporter>(dir, config.integrator.emtol, stdout));
+  else
+    simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));
   simulation.add_observer(std::make_unique<ProgressReporter>(stderr));
 
   std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, output in %s\n",

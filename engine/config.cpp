@@ -21,7 +21,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
       {"forcefield",
        {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "epsilon_r", "epsilon_rf", "neighbor_skin"}},
       {"integrator",
-       {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "method", "method_minus", "bias",
+       {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "emtol", "emstep", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
       {"integrator.tableau", {"a", "b", "c", "order"}},
       {"output", {"dir", "trajectory_every", "energy_every"}},
@@ -29,7 +29,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
   return tables;
 }
 
-const std::vector<std::string> kIntegratorTypes = {"verlet", "shake", "rattle", "vi", "rk"};
+const std::vector<std::string> kIntegratorTypes = {"verlet", "shake", "rattle", "vi", "rk", "minimize"};
 const std::vector<std::string> kVdwModifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
 const std::vector<std::string> kCoulombTypes = {"reaction-field", "cutoff", "none"};
 const std::vector<std::string> kProjections = {"euclidean", "mass"};
@@ -265,6 +265,14 @@ class ConfigReader {
       const long seed = integer(*n, "seed");
       require(seed >= 0, *n, "seed must not be negative");
       in.seed = static_cast<std::uint64_t>(seed);
+    }
+    if (const auto* n = t.get("emtol")) {
+      in.emtol = number(*n, "emtol");
+      require(in.emtol > 0, *n, "emtol must be positive (kJ/mol/nm)");
+    }
+    if (const auto* n = t.get("emstep")) {
+      in.emstep = number(*n, "emstep");
+      require(in.emstep > 0, *n, "emstep must be positive (nm)");
     }
     if (const auto* n = t.get("method")) {
       in.method = string(*n, "method");

@@ -29,12 +29,16 @@ struct TableauConfig {
 };
 
 struct IntegratorConfig {
-  std::string type = "rattle";  // "verlet" | "shake" | "rattle" | "vi" | "rk"
+  std::string type = "rattle";  // "verlet" | "shake" | "rattle" | "vi" | "rk" | "minimize"
   double dt = 0.002;            // ps
   long steps = 1000;
   double constraint_tolerance = 1e-10;  // relative
   std::optional<double> temperature;    // K, initial velocities when the .gro has none
   std::uint64_t seed = 1;
+
+  // Energy minimisation (type = "minimize").
+  double emtol = 10.0;   // kJ/mol/nm: stop when the largest constrained force is below this
+  double emstep = 0.01;  // nm: the first step's largest displacement
 
   // Variational / Runge–Kutta integrators.
   std::string method = "rk4";             // tableau name, or "user" with [integrator.tableau]

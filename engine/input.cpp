@@ -49,6 +49,8 @@ RunInput read_run_input(const std::filesystem::path& config_file) {
   } else if (c.integrator.temperature) {
     in.state.v = maxwell_boltzmann_velocities(in.system, *c.integrator.temperature, c.integrator.seed);
     in.velocities_generated = true;
+  } else if (c.integrator.type == "minimize") {
+    in.state.v = Coords::Zero(3, in.system.n_atoms());  // a minimiser has no use for velocities
   } else {
     throw InputError(c.file.string(), 0,
                      c.structure.string() + " has no velocities: set [integrator] temperature to generate them");

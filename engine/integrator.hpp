@@ -21,6 +21,7 @@ struct StepReport {
   int iterations = 0;               // solver iterations (constraint or variational)
   double residual = 0;              // final solver residual
   std::vector<double> diagnostics;  // aligned with Integrator::diagnostic_names()
+  bool finished = false;            // nothing left to do (a minimiser converged): the run ends here
 };
 
 class Integrator {

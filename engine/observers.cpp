@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "engine/errors.hpp"
@@ -249,4 +250,49 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
   json.commit();
 }
 
+// ---------------------------------------------------------------- minimisation
+
+MinimizationReporter::MinimizationReporter(const std::filesystem::path& dir, double emtol, std::FILE* out)
+    : dir_(dir), emtol_(emtol), out_(out) {}
+
+void MinimizationReporter::finish(const RunInfo& info, const State&, const RunTotals& totals) {
+  auto diagnostic = [&](const char* name) {
+    for (std::size_t k = 0; k < info.diagnostic_names.size(); ++k)
+      if (info.diagnostic_names[k] == name && k < last_.diagnostics.size()) return last_.diagnostics[k];
+    throw std::logic_error(std::string("MinimizationReporter: the integrator reports no ") + name);
+  };
+  const double max_force = diagnostic("max_force");
+  const int atom = static_cast<int>(diagnostic("max_force_atom"));  // 1-based
+  const System& system = info.problem.system;
+  const bool converged = max_force < emtol_;
+  const std::string where = system.atom_names[atom - 1] + " of " + system.residue_names[atom - 1] +
+                            std::to_string(system.residue_numbers[atom - 1]);
+
+  std::fprintf(out_, "\nMinimisation (%s, %d atoms): %s after %ld steps\n", info.integrator.name().c_str(),
+               system.n_atoms(), converged ? "converged" : "NOT converged", totals.steps);
+  std::fprintf(out_, "  potential         %.6f kJ/mol\n", last_.potential);
+  for (std::size_t k = 0; k < info.energy_names.size(); ++k)
+    std::fprintf(out_, "    %-15s %.6f kJ/mol\n", info.energy_names[k].c_str(), last_.energy_terms[k]);
+  std::fprintf(out_, "  max force         %.6g kJ/mol/nm on atom %d (%s); emtol %g\n", max_force, atom, where.c_str(),
+               emtol_);
+  if (!converged)
+    std::fprintf(out_, "  the step limit or double precision ended the descent before emtol was reached\n");
+  std::fflush(out_);
+
+  PendingFile json(dir_ / "summary.json");
+  {
+    std::ofstream out = open_output(json.partial_path());
+    out << "{\n  \"integrator\": \"" << info.integrator.name() << "\",\n  \"atoms\": " << system.n_atoms()
+        << ",\n  \"steps\": " << totals.steps << ",\n  \"converged\": " << (converged ? "true" : "false")
+        << ",\n  \"emtol\": " << number(emtol_) << ",\n  \"potential\": " << number(last_.potential);
+    for (std::size_t k = 0; k < info.energy_names.size(); ++k)
+      out << ",\n  \"" << info.energy_names[k] << "\": " << number(last_.energy_terms[k]);
+    out << ",\n  \"max_force\": " << number(max_force) << ",\n  \"max_force_atom\": " << atom
+        << ",\n  \"wall_seconds\": " << number(totals.wall_seconds)
+        << ",\n  \"force_evaluations\": " << totals.force_evaluations << "\n}\n";
+  }
+  json.commit();
+}
+
 }  // namespace vimd
+

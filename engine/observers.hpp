@@ -111,4 +111,21 @@ class SummaryReporter : public Observer {
   std::vector<std::vector<double>> diagnostics_;
 };
 
+// The end of an energy minimisation (integrator diagnostics max_force, max_force_atom): final
+// potential and its terms, the largest constrained force and the atom carrying it, whether it is
+// below emtol; printed to `out` and written to summary.json in dir.
+class MinimizationReporter : public Observer {
+ public:
+  MinimizationReporter(const std::filesystem::path& dir, double emtol, std::FILE* out);
+  long every() const override { return 0; }
+  void observe(const RunInfo&, const State&, const Sample& s) override { last_ = s; }
+  void finish(const RunInfo&, const State&, const RunTotals&) override;
+
+ private:
+  std::filesystem::path dir_;
+  double emtol_;
+  std::FILE* out_;
+  Sample last_;
+};
+
 }  // namespace vimd

@@ -71,16 +71,17 @@ RunTotals Simulation::run(State& state, long steps) {
   for (long n = 0; n < steps; ++n) {
     report = integrator_.step(problem_, state);
     ++state.step;
+    ++totals.steps;
     state.time = t0 + (n + 1) * dt_;
     totals.solver_iterations += report.iterations;
     if (!std::isfinite(state.potential))
       throw ConvergenceError(integrator_.name(), state.step, report.iterations, report.residual,
                              "the potential energy is not finite (the system blew up; try a smaller dt)");
-    notify(n + 1 == steps);
+    notify(n + 1 == steps || report.finished);
+    if (report.finished) break;
   }
 
   totals.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  totals.steps = steps;
   totals.force_evaluations = problem_.force_field.force_evaluations() - evaluations0;
   totals.hessian_evaluations = problem_.force_field.hessian_evaluations() - hessians0;
   totals.neighbor_rebuilds = problem_.force_field.neighbor_rebuilds() - rebuilds0;

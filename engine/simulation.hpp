@@ -56,7 +56,7 @@ class Simulation {
  public:
   Simulation(Problem& problem, Integrator& integrator, double dt);
   void add_observer(std::unique_ptr<Observer> observer);
-  // init() the integrator, then step `steps` times. Throws what the integrator throws
+  // init() the integrator, then step `steps` times, or fewer when a step reports finished. Throws what the integrator throws
   // (ConvergenceError), after which no observer's finish() has run.
   RunTotals run(State& state, long steps);
 

@@ -1,6 +1,7 @@
 #include "integrators/registry.hpp"
 
 #include "engine/errors.hpp"
+#include "integrators/minimize.hpp"
 #include "integrators/projected_rk.hpp"
 #include "integrators/rattle.hpp"
 #include "integrators/shake.hpp"
@@ -28,6 +29,7 @@ constexpr Entry kIntegrators[] = {
     {"rattle", build<Rattle>},
     {"vi", build<VariationalIntegrator>},
     {"rk", build<ProjectedRungeKutta>},
+    {"minimize", build<SteepestDescent>},
 };
 
 }  // namespace

@@ -91,7 +91,7 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"zero_cutoff.toml", "cutoff must be positive"},
       {"bad_modifier.toml", "did you mean \"potential-shift\"? (choices: none, potential-shift, force-switch, potential-switch)"},
       {"bad_coulomb.toml", "coulomb = \"pme\" is not supported (choices: reaction-field, cutoff, none)"},
-      {"bad_integrator_type.toml", "(choices: verlet, shake, rattle, vi, rk)"},
+      {"bad_integrator_type.toml", "(choices: verlet, shake, rattle, vi, rk, minimize)"},
       {"bad_projection.toml", "(choices: euclidean, mass)"},
       {"wrong_type.toml", "steps must be an integer, found a string"},
       {"fractional_steps.toml", "steps must be an integer, found a floating-point number"},
