@@ -21,7 +21,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
       {"forcefield",
        {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "epsilon_r", "epsilon_rf", "neighbor_skin"}},
       {"integrator",
-       {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "emtol", "emstep", "method", "method_minus", "bias",
+       {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
       {"integrator.tableau", {"a", "b", "c", "order"}},
       {"output", {"dir", "trajectory_every", "energy_every"}},
@@ -30,6 +30,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
 }
 
 const std::vector<std::string> kIntegratorTypes = {"verlet", "shake", "rattle", "vi", "rk", "minimize"};
+const std::vector<std::string> kThermostats = {"none", "v-rescale"};
 const std::vector<std::string> kVdwModifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
 const std::vector<std::string> kCoulombTypes = {"reaction-field", "cutoff", "none"};
 const std::vector<std::string> kProjections = {"euclidean", "mass"};
@@ -265,6 +266,15 @@ class ConfigReader {
       const long seed = integer(*n, "seed");
       require(seed >= 0, *n, "seed must not be negative");
       in.seed = static_cast<std::uint64_t>(seed);
+    }
+    if (const auto* n = t.get("thermostat")) {
+      in.thermostat = choice(*n, "thermostat", kThermostats);
+      require(in.thermostat == "none" || in.temperature, *n,
+              "thermostat = \"" + in.thermostat + "\" needs temperature = <K> in [integrator] (the reference)");
+    }
+    if (const auto* n = t.get("tau_t")) {
+      in.tau_t = number(*n, "tau_t");
+      require(in.tau_t >= 0, *n, "tau_t must not be negative (ps)");
     }
     if (const auto* n = t.get("emtol")) {
       in.emtol = number(*n, "emtol");

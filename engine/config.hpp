@@ -33,8 +33,10 @@ struct IntegratorConfig {
   double dt = 0.002;            // ps
   long steps = 1000;
   double constraint_tolerance = 1e-10;  // relative
-  std::optional<double> temperature;    // K, initial velocities when the .gro has none
-  std::uint64_t seed = 1;
+  std::optional<double> temperature;    // K: initial velocities when the .gro has none; the thermostat's
+  std::uint64_t seed = 1;               // velocity generation and the thermostat's random stream
+  std::string thermostat = "none";      // "none" | "v-rescale"
+  double tau_t = 0.1;                   // ps, the thermostat's time constant
 
   // Energy minimisation (type = "minimize").
   double emtol = 10.0;   // kJ/mol/nm: stop when the largest constrained force is below this

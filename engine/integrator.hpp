@@ -35,6 +35,9 @@ class Integrator {
   virtual StepReport step(Problem& problem, State& state) = 0;
   // Kinetic energy to report for state (leap-frog integrators average half steps).
   virtual double kinetic_energy(const Problem& problem, const State& state) const;
+  // Energy a thermostat has put into the system so far (kJ/mol); total energy minus this is the
+  // conserved quantity.
+  virtual double thermostat_work() const { return 0; }
   // Extra per-step columns for the energy output (e.g. iterations, Noether momentum).
   virtual std::vector<std::string> diagnostic_names() const { return {}; }
 };

@@ -95,7 +95,8 @@ struct EnergyStatistics {
 };
 EnergyStatistics energy_statistics(const std::vector<double>& time, const std::vector<double>& total, int atoms);
 
-// Prints the end-of-run summary to `out` and writes summary.json into dir.
+// Prints the end-of-run summary to `out` and writes summary.json into dir. Drift and fluctuation
+// are those of the conserved energy (the total energy when no thermostat works).
 class SummaryReporter : public Observer {
  public:
   SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out);
@@ -107,7 +108,7 @@ class SummaryReporter : public Observer {
   long every_;
   std::filesystem::path dir_;
   std::FILE* out_;
-  std::vector<double> time_, total_, temperature_, constraint_rms_;
+  std::vector<double> time_, conserved_, temperature_, constraint_rms_;
   std::vector<std::vector<double>> diagnostics_;
 };
 

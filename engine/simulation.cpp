@@ -19,6 +19,7 @@ Sample Simulation::sample(const State& state, const StepReport& report) const {
   s.potential = state.potential;
   s.kinetic = integrator_.kinetic_energy(problem_, state);
   s.total = s.potential + s.kinetic;
+  s.conserved = s.total - integrator_.thermostat_work();
   const int dof = system.degrees_of_freedom();
   s.temperature = dof > 0 ? 2.0 * s.kinetic / (dof * kBoltzmann) : 0.0;
   s.energy_terms = state.energy_terms;

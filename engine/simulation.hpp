@@ -17,6 +17,7 @@ struct Sample {
   double potential = 0;    // kJ/mol
   double kinetic = 0;      // kJ/mol
   double total = 0;        // kJ/mol
+  double conserved = 0;    // kJ/mol: total − Integrator::thermostat_work() (= total without a thermostat)
   double temperature = 0;  // K
   double constraint_rms = 0;         // RMS relative deviation of constraint lengths
   std::vector<double> energy_terms;  // kJ/mol, per ForceField::energy_names()

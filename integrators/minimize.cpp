@@ -5,6 +5,7 @@
 
 #include "engine/errors.hpp"
 #include "integrators/rattle.hpp"
+#include "integrators/thermostat.hpp"
 #include "integrators/verlet.hpp"
 
 namespace vimd {
@@ -23,6 +24,7 @@ SteepestDescent::SteepestDescent(const IntegratorConfig& config)
   if (!(emtol_ > 0)) throw InputError("[integrator]", 0, "emtol must be positive (kJ/mol/nm)");
   if (!(step_size_ > 0)) throw InputError("[integrator]", 0, "emstep must be positive (nm)");
   check_step_config(config);
+  refuse_thermostat(config, "a minimisation has no temperature");
 }
 
 void SteepestDescent::constrained_force(const Problem& problem, const State& state) {

@@ -4,6 +4,7 @@
 #include "integrators/constrained_dynamics.hpp"
 #include "integrators/explicit_rk.hpp"
 #include "integrators/projection.hpp"
+#include "integrators/thermostat.hpp"
 #include "integrators/verlet.hpp"
 
 namespace vimd {
@@ -44,6 +45,9 @@ ProjectedRungeKutta::ProjectedRungeKutta(ButcherTableau tableau, double dt, std:
 ProjectedRungeKutta::ProjectedRungeKutta(const IntegratorConfig& config)
     : ProjectedRungeKutta(resolve_tableau(config.method, config), config.dt, config.projection) {
   check_step_config(config);
+  refuse_thermostat(config,
+                    "the Runge-Kutta integrators run NVE (the baseline for the variational ones); equilibrate "
+                    "with type = \"rattle\" and thermostat = \"v-rescale\", then continue from its confout.gro");
 }
 
 ProjectedRungeKutta::~ProjectedRungeKutta() = default;

@@ -14,7 +14,10 @@ int constrain_start(const Problem& problem, State& state, double tolerance, int 
 }
 
 Rattle::Rattle(const IntegratorConfig& config)
-    : dt_(config.dt), tolerance_(config.constraint_tolerance), max_iterations_(config.max_iterations) {
+    : dt_(config.dt),
+      tolerance_(config.constraint_tolerance),
+      max_iterations_(config.max_iterations),
+      thermostat_(make_thermostat(config)) {
   check_step_config(config);
 }
 
@@ -42,6 +45,7 @@ StepReport Rattle::step(Problem& problem, State& state) {
   evaluate_forces(problem, state, forces_);
   kick(w, state.f, 0.5 * dt_, state.v);
   constraints.project_velocities(state.q, state.v, w);
+  if (thermostat_) thermostat_->apply(problem.system.mass, problem.system.degrees_of_freedom(), state.v);
   return report;
 }
 

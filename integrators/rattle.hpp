@@ -2,8 +2,11 @@
 // RATTLE (Andersen 1983): velocity Verlet with a position constraint stage (Newton on the
 // multipliers along G(q_n)ᵀ) and a velocity projection onto the tangent space at q_{n+1}.
 // State::v holds the on-step velocity v_n.
+#include <optional>
+
 #include "engine/config.hpp"
 #include "engine/integrator.hpp"
+#include "integrators/thermostat.hpp"
 
 namespace vimd {
 
@@ -19,13 +22,16 @@ class Rattle : public Integrator {
   void init(Problem& problem, State& state) override;
   // iterations: constraint (Newton) iterations of the position stage; residual: the final
   // maximum relative bond-length deviation.
+  // With thermostat = "v-rescale", v_{n+1} is rescaled at the end of the step.
   StepReport step(Problem& problem, State& state) override;
+  double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
 
  private:
   double dt_, tolerance_;
   int max_iterations_;
   Forces forces_;
   Coords q_start_;
+  std::optional<VRescaleThermostat> thermostat_;
 };
 
 }  // namespace vimd

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "integrators/rattle.hpp"
+#include "integrators/thermostat.hpp"
 #include "integrators/verlet.hpp"
 
 namespace vimd {
@@ -10,6 +11,9 @@ namespace vimd {
 Shake::Shake(const IntegratorConfig& config)
     : dt_(config.dt), tolerance_(config.constraint_tolerance), max_iterations_(config.max_iterations) {
   check_step_config(config);
+  refuse_thermostat(config,
+                    "its leap-frog state holds half-step velocities, not the on-step kinetic energy v-rescale "
+                    "scales; use type = \"rattle\" (the same trajectory with on-step velocities)");
 }
 
 void Shake::init(Problem& problem, State& state) {

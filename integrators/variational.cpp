@@ -8,6 +8,7 @@
 #include "integrators/coords_ops.hpp"
 #include "integrators/explicit_rk.hpp"
 #include "integrators/projection.hpp"
+#include "integrators/thermostat.hpp"
 #include "integrators/verlet.hpp"
 
 namespace vimd {
@@ -30,6 +31,10 @@ std::string format_tolerance(double x) {
 
 VariationalSettings VariationalSettings::from_config(const IntegratorConfig& config, const std::string& file) {
   check_step_config(config);
+  refuse_thermostat(config,
+                    "the variational integrators stay NVE (a thermostat would break the symplectic, "
+                    "momentum-conserving discrete dynamics they exist for); equilibrate with type = \"rattle\" and "
+                    "thermostat = \"v-rescale\", then continue from its confout.gro with type = \"vi\"");
   if (config.solver_tolerance && !(*config.solver_tolerance > 0))
     throw InputError(file, 0, "solver_tolerance must be positive (nm/ps), got " + format_tolerance(*config.solver_tolerance));
   VariationalSettings s;

@@ -1,8 +1,11 @@
 #pragma once
 // Velocity Verlet for unconstrained systems, plus the pieces the constrained integrators
 // (SHAKE, RATTLE) share with it: the half kick, the force update and the config checks.
+#include <optional>
+
 #include "engine/config.hpp"
 #include "engine/integrator.hpp"
+#include "integrators/thermostat.hpp"
 
 namespace vimd {
 
@@ -22,11 +25,14 @@ class VelocityVerlet : public Integrator {
   std::string name() const override { return "verlet"; }
   // Refuses constrained systems (use RATTLE); computes the starting forces.
   void init(Problem& problem, State& state) override;
+  // With thermostat = "v-rescale", v_{n+1} is rescaled at the end of the step.
   StepReport step(Problem& problem, State& state) override;
+  double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
 
  private:
   double dt_;
   Forces forces_;
+  std::optional<VRescaleThermostat> thermostat_;
 };
 
 }  // namespace vimd

@@ -125,7 +125,7 @@ TEST(Simulation, WritesEnergySeriesWithTheDocumentedColumns) {
   const auto csv = lines(dir / "energy.csv");
   ASSERT_EQ(csv.size(), 1u + 11u);  // header + steps 0, 10, ..., 100
   EXPECT_EQ(csv[0],
-            "time,potential,kinetic,total,temperature,constraint_rms,springs,momentum_x,momentum_y,momentum_z,probe");
+            "time,potential,kinetic,total,conserved,temperature,constraint_rms,springs,momentum_x,momentum_y,momentum_z,probe");
   EXPECT_TRUE(fs::exists(dir / "energy.xvg"));
   EXPECT_TRUE(fs::exists(dir / "summary.json"));
   EXPECT_FALSE(fs::exists(dir / "energy.csv.partial"));
