@@ -1,5 +1,5 @@
-// vimd: the composition root. Reads a run config, builds the force field, constraints and
-// integrator from their registries, and hands them to the one simulation loop.
+// vimd: the command line. The wiring from a run config to the simulation loop is app/model.*,
+// shared with the Python module (app/python).
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -8,12 +8,9 @@
 #include <map>
 #include <set>
 
-#include "engine/constraints.hpp"
+#include "app/model.hpp"
 #include "engine/errors.hpp"
-#include "engine/input.hpp"
 #include "engine/observers.hpp"
-#include "engine/simulation.hpp"
-#include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
 namespace fs = std::filesystem;
@@ -21,67 +18,21 @@ using namespace vimd;
 
 namespace {
 
-struct Model {
-  RunInput input;
-  std::unique_ptr<ForceField> force_field;
-  Constraints constraints;
-  Eigen::VectorXd inverse_mass;
-};
-
-Model build_model(const fs::path& config_file) {
-  Model m{read_run_input(config_file), nullptr, {}, {}};
-  const System& system = m.input.system;
-  m.force_field = make_force_field(system, m.input.config.forcefield);
-  m.constraints = Constraints(system.constraints, system.n_atoms(), system.box);
-  m.inverse_mass = system.mass.cwiseInverse();
-  return m;
-}
-
 int run_command(const fs::path& config_file, const std::string& out_override, long steps_override) {
-  Model m = build_model(config_file);
-  RunConfig& config = m.input.config;
+  std::unique_ptr<Model> m = load_model(config_file);
+  RunConfig& config = m->input.config;
   if (steps_override >= 0) config.integrator.steps = steps_override;
   const fs::path dir = out_override.empty() ? config.output.dir : fs::path(out_override);
-  const System& system = m.input.system;
-  State& state = m.input.state;
-
-  std::unique_ptr<Integrator> integrator = make_integrator(config.integrator);
-  Problem problem{system, *m.force_field, m.constraints, m.inverse_mass};
-  if (m.input.velocities_generated) {
-    // Generated velocities: remove the constraint components before setting the temperature.
-    m.constraints.project_velocities(state.q, state.v, m.inverse_mass);
-    scale_to_temperature(system, *config.integrator.temperature, state.v);
-  }
-
-  fs::create_directories(dir);
-  // Outputs of an earlier run in the same place must not pass for this run's.
-  for (const char* name : {"energy.xvg", "energy.csv", "traj.trr", "confout.gro", "summary.json"}) {
-    fs::remove(dir / name);
-    fs::remove(dir / (std::string(name) + ".partial"));
-  }
+  Run run(*m);
+  add_output_observers(run, config, dir);
+  run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
 
   const long steps = config.integrator.steps;
-  const long energy_every = config.output.energy_every;
-  // The summary needs a series even when no energy file is written.
-  const long summary_every = energy_every > 0 ? energy_every : std::max(1L, steps / 1000);
-  const bool minimize = config.integrator.type == "minimize";
-  // A minimiser's "time" counts its steps, as GROMACS writes it for energy minimisations.
-  Simulation simulation(problem, *integrator, minimize ? 1.0 : config.integrator.dt);
-  if (energy_every > 0) simulation.add_observer(std::make_unique<EnergyWriter>(dir, energy_every));
-  if (config.output.trajectory_every > 0)
-    simulation.add_observer(std::make_unique<TrajectoryWriter>(dir, config.output.trajectory_every));
-  simulation.add_observer(std::make_unique<FinalStructureWriter>(dir));
-  if (minimize)
-    simulation.add_observer(std::make_unique<MinimizationReporter>(dir, config.integrator.emtol, stdout));
-  else
-    simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));
-  simulation.add_observer(std::make_unique<ProgressReporter>(stderr));
-
   std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, output in %s\n",
-              config.file.string().c_str(), system.n_atoms(), integrator->name().c_str(), config.integrator.dt, steps,
-              omp_get_max_threads(), dir.string().c_str());
+              config.file.string().c_str(), m->input.system.n_atoms(), run.integrator->name().c_str(),
+              config.integrator.dt, steps, omp_get_max_threads(), dir.string().c_str());
   std::fflush(stdout);
-  simulation.run(state, steps);
+  run.simulation->run(m->input.state, steps);
   return 0;
 }
 
@@ -92,10 +43,10 @@ std::string json_number(double x) {
 }
 
 int energy_command(const fs::path& config_file, bool json) {
-  Model m = build_model(config_file);
+  std::unique_ptr<Model> m = load_model(config_file);
   Forces forces;
-  m.force_field->compute(m.input.state.q, forces);
-  const auto& names = m.force_field->energy_names();
+  m->force_field->compute(m->input.state.q, forces);
+  const auto& names = m->force_field->energy_names();
   if (json) {
     std::printf("{");
     for (std::size_t k = 0; k < names.size(); ++k)
@@ -109,7 +60,8 @@ int energy_command(const fs::path& config_file, bool json) {
 }
 
 int check_command(const fs::path& config_file) {
-  Model m = build_model(config_file);
+  std::unique_ptr<Model> model = load_model(config_file);
+  const Model& m = *model;
   const RunConfig& c = m.input.config;
   const System& s = m.input.system;
   std::set<int> molecules(s.molecule.begin(), s.molecule.end());

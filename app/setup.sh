@@ -5,7 +5,8 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 packages=(g++ cmake make pkg-config libeigen3-dev libgtest-dev libtomlplusplus-dev libcli11-dev
-          gromacs time python3-numpy python3-scipy python3-matplotlib python3-mdanalysis)
+          gromacs time python3-numpy python3-scipy python3-matplotlib python3-mdanalysis
+          python3-dev pybind11-dev python3-pytest)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

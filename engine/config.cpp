@@ -88,7 +88,7 @@ class ConfigReader {
  public:
   explicit ConfigReader(const fs::path& file) : file_(file), dir_(file.parent_path()) {}
 
-  RunConfig read() {
+  RunConfig read(const ConfigOverrides& overrides) {
     toml::table root;
     try {
       root = toml::parse_file(file_.string());
@@ -96,6 +96,7 @@ class ConfigReader {
       throw InputError(file_.string(), static_cast<int>(e.source().begin.line),
                        "TOML syntax error: " + std::string(e.description()));
     }
+    for (const auto& [key, value] : overrides) apply_override(root, key, value);
     RunConfig config;
     config.file = file_;
     for (auto&& [key, node] : root) {
@@ -114,11 +115,64 @@ class ConfigReader {
   }
 
  private:
+  // Nodes without a source were put there by apply_override.
   [[noreturn]] void fail(const toml::key& key, const std::string& problem) const {
+    if (!key.source().path) throw InputError(kOverrides, 0, problem);
     throw InputError(file_.string(), static_cast<int>(key.source().begin.line), problem);
   }
   [[noreturn]] void fail(const toml::node& node, const std::string& problem) const {
+    if (!node.source().path) throw InputError(kOverrides, 0, problem);
     throw InputError(file_.string(), static_cast<int>(node.source().begin.line), problem);
+  }
+
+  static constexpr const char* kOverrides = "settings given with the config file";
+
+  static toml::array to_array(const std::vector<double>& values) {
+    toml::array array;
+    for (double x : values) array.push_back(x);
+    return array;
+  }
+
+  // Puts `key = value` into the table whose schema has `key`, replacing what the file says.
+  void apply_override(toml::table& root, const std::string& key, const ConfigValue& value) const {
+    std::string table_name;
+    std::vector<std::string> all;
+    for (const auto& [table, keys] : schema()) {
+      if (table.find('.') != std::string::npos) continue;
+      all.insert(all.end(), keys.begin(), keys.end());
+      if (std::find(keys.begin(), keys.end(), key) != keys.end()) table_name = table;
+    }
+    if (table_name.empty()) {
+      const auto suggestion = nearest(key, all);
+      throw InputError(kOverrides, 0,
+                       "unknown setting '" + key + "'" + (suggestion ? "; did you mean '" + *suggestion + "'?" : "") +
+                           " (settings: " + join(all) + ")");
+    }
+    if (!root.contains(table_name)) root.insert(table_name, toml::table{});
+    toml::table* table = root[table_name].as_table();
+    if (!table) throw InputError(file_.string(), 0, "[" + table_name + "] must be a table");
+    std::visit(
+        [&](const auto& v) {
+          using T = std::decay_t<decltype(v)>;
+          if constexpr (std::is_same_v<T, std::vector<double>>) {
+            table->insert_or_assign(key, to_array(v));
+          } else if constexpr (std::is_same_v<T, TableauConfig>) {
+            toml::table tableau;
+            toml::array a;
+            for (const auto& row : v.a) a.push_back(to_array(row));
+            tableau.insert("a", std::move(a));
+            tableau.insert("b", to_array(v.b));
+            if (!v.c.empty()) tableau.insert("c", to_array(v.c));
+            tableau.insert("order", static_cast<std::int64_t>(v.order));
+            table->insert_or_assign(key, std::move(tableau));
+            table->insert_or_assign("method", "user");
+          } else if constexpr (std::is_same_v<T, long>) {
+            table->insert_or_assign(key, static_cast<std::int64_t>(v));
+          } else {
+            table->insert_or_assign(key, v);
+          }
+        },
+        value);
   }
 
   [[noreturn]] void unknown_top_level(const std::string& name, const toml::key& key, const toml::node& node) const {
@@ -381,10 +435,10 @@ class ConfigReader {
 
 }  // namespace
 
-RunConfig read_config(const fs::path& file) {
+RunConfig read_config(const fs::path& file, const ConfigOverrides& overrides) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), 0, "cannot open config file");
-  return ConfigReader(file).read();
+  return ConfigReader(file).read(overrides);
 }
 
 }  // namespace vimd

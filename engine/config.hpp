@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 namespace vimd {
@@ -67,6 +69,11 @@ struct RunConfig {
   OutputConfig output;
 };
 
-RunConfig read_config(const std::filesystem::path& file);
+// Settings given next to the file (e.g. keyword arguments in Python): each key is looked up in the
+// tables of the TOML schema and checked exactly as if the file had it; a tableau implies method = "user".
+using ConfigValue = std::variant<bool, long, double, std::string, std::vector<double>, TableauConfig>;
+using ConfigOverrides = std::vector<std::pair<std::string, ConfigValue>>;
+
+RunConfig read_config(const std::filesystem::path& file, const ConfigOverrides& overrides = {});
 
 }  // namespace vimd

@@ -28,9 +28,9 @@ void scale_to_temperature(const System& system, double temperature, Coords& v) {
   if (kinetic > 0) v *= std::sqrt(target / kinetic);
 }
 
-RunInput read_run_input(const std::filesystem::path& config_file) {
+RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOverrides& overrides) {
   RunInput in;
-  in.config = read_config(config_file);
+  in.config = read_config(config_file, overrides);
   const RunConfig& c = in.config;
   in.system = read_topology(c.topology);
   GroFrame frame = read_gro(c.structure);

@@ -15,7 +15,7 @@ struct RunInput {
   bool velocities_generated = false;
 };
 
-RunInput read_run_input(const std::filesystem::path& config_file);
+RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOverrides& overrides = {});
 
 // Maxwell–Boltzmann velocities at `temperature` with zero total momentum.
 Coords maxwell_boltzmann_velocities(const System& system, double temperature, std::uint64_t seed);

@@ -48,7 +48,8 @@ RunTotals Simulation::run(State& state, long steps) {
   const long evaluations0 = problem_.force_field.force_evaluations();
   const long hessians0 = problem_.force_field.hessian_evaluations();
   const long rebuilds0 = problem_.force_field.neighbor_rebuilds();
-  integrator_.init(problem_, state);
+  if (!initialized_) integrator_.init(problem_, state);
+  initialized_ = true;
   const auto start = std::chrono::steady_clock::now();
 
   for (auto& o : observers_) o->begin(info);

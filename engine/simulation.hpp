@@ -57,7 +57,8 @@ class Simulation {
  public:
   Simulation(Problem& problem, Integrator& integrator, double dt);
   void add_observer(std::unique_ptr<Observer> observer);
-  // init() the integrator, then step `steps` times, or fewer when a step reports finished. Throws what the integrator throws
+  // init() the integrator (on the first run only: a later run continues the same state), then
+  // step `steps` times, or fewer when a step reports finished. Throws what the integrator throws
   // (ConvergenceError), after which no observer's finish() has run.
   RunTotals run(State& state, long steps);
 
@@ -67,6 +68,7 @@ class Simulation {
   Problem& problem_;
   Integrator& integrator_;
   double dt_;
+  bool initialized_ = false;
   std::vector<std::unique_ptr<Observer>> observers_;
 };
 

@@ -142,6 +142,22 @@ TEST(Simulation, WritesEnergySeriesWithTheDocumentedColumns) {
   std::fclose(sink);
 }
 
+// A second run() of the same loop continues the state (what Python's sim.step(n) relies on):
+// no second init(), and the result equals one run of the summed length.
+TEST(Simulation, ASecondRunContinuesWithoutInitialisingAgain) {
+  Fixture fx, reference;
+  reference.state = fx.state;  // Coords::Random differs per fixture
+  Problem problem = fx.problem(), reference_problem = reference.problem();
+  TestVerlet integrator(0.01), reference_integrator(0.01);
+  Simulation sim(problem, integrator, 0.01), once(reference_problem, reference_integrator, 0.01);
+  EXPECT_EQ(sim.run(fx.state, 6).force_evaluations, 7);
+  EXPECT_EQ(sim.run(fx.state, 4).force_evaluations, 4);
+  once.run(reference.state, 10);
+  EXPECT_EQ(fx.state.step, 10);
+  EXPECT_EQ(fx.state.q, reference.state.q);
+  EXPECT_EQ(fx.state.v, reference.state.v);
+}
+
 TEST(Simulation, FailedRunLeavesOnlyPartialFiles) {
   Fixture fx;
   Problem problem = fx.problem();

@@ -1,0 +1,57 @@
+#include "app/model.hpp"
+
+#include <cstdio>
+
+#include "engine/observers.hpp"
+#include "forcefields/registry.hpp"
+#include "integrators/registry.hpp"
+
+namespace vimd {
+
+std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, const ConfigOverrides& overrides) {
+  auto m = std::make_unique<Model>(Model{read_run_input(config_file, overrides), nullptr, {}, {}});
+  const System& system = m->input.system;
+  m->force_field = make_force_field(system, m->input.config.forcefield);
+  m->constraints = Constraints(system.constraints, system.n_atoms(), system.box);
+  m->inverse_mass = system.mass.cwiseInverse();
+  return m;
+}
+
+Run::Run(Model& m)
+    : integrator(make_integrator(m.input.config.integrator)),
+      problem{m.input.system, *m.force_field, m.constraints, m.inverse_mass},
+      dt(m.input.config.integrator.type == "minimize" ? 1.0 : m.input.config.integrator.dt),
+      simulation(std::make_unique<Simulation>(problem, *integrator, dt)) {
+  if (m.input.velocities_generated) {
+    // Generated velocities: remove the constraint components before setting the temperature.
+    State& state = m.input.state;
+    m.constraints.project_velocities(state.q, state.v, m.inverse_mass);
+    scale_to_temperature(m.input.system, *m.input.config.integrator.temperature, state.v);
+  }
+}
+
+void Run::restart() { simulation = std::make_unique<Simulation>(problem, *integrator, dt); }
+
+void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  // Outputs of an earlier run in the same place must not pass for this run's.
+  for (const char* name : {"energy.xvg", "energy.csv", "traj.trr", "confout.gro", "summary.json"}) {
+    std::filesystem::remove(dir / name);
+    std::filesystem::remove(dir / (std::string(name) + ".partial"));
+  }
+  const long steps = config.integrator.steps;
+  const long energy_every = config.output.energy_every;
+  // The summary needs a series even when no energy file is written.
+  const long summary_every = energy_every > 0 ? energy_every : std::max(1L, steps / 1000);
+  Simulation& simulation = *run.simulation;
+  if (energy_every > 0) simulation.add_observer(std::make_unique<EnergyWriter>(dir, energy_every));
+  if (config.output.trajectory_every > 0)
+    simulation.add_observer(std::make_unique<TrajectoryWriter>(dir, config.output.trajectory_every));
+  simulation.add_observer(std::make_unique<FinalStructureWriter>(dir));
+  if (config.integrator.type == "minimize")
+    simulation.add_observer(std::make_unique<MinimizationReporter>(dir, config.integrator.emtol, stdout));
+  else
+    simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));
+}
+
+}  // namespace vimd

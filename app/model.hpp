@@ -1,0 +1,42 @@
+#pragma once
+// The wiring both composition roots share (the vimd program and the Python module): a run file
+// (plus settings given next to it) → system, force field and constraints → integrator, problem and
+// the simulation loop with the run's output observers. The only place that names concrete force
+// terms and integrators together.
+#include <filesystem>
+#include <memory>
+
+#include "engine/constraints.hpp"
+#include "engine/input.hpp"
+#include "engine/simulation.hpp"
+
+namespace vimd {
+
+struct Model {
+  RunInput input;
+  std::unique_ptr<ForceField> force_field;
+  Constraints constraints;
+  Eigen::VectorXd inverse_mass;
+};
+
+// Reads config, topology and structure and builds the force field and constraints.
+std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, const ConfigOverrides& overrides = {});
+
+// The integrator and the loop for a model, which must outlive it (they refer into it). Velocities
+// generated from the temperature get their constraint components removed and are rescaled to it.
+struct Run {
+  explicit Run(Model& model);
+  // A fresh loop (without observers) for a state changed from outside: its first run init()s the
+  // integrator again, which constrains the new state and computes its forces.
+  void restart();
+  std::unique_ptr<Integrator> integrator;
+  Problem problem;
+  double dt;  // ps; 1 for a minimiser, whose "time" counts steps as GROMACS writes it
+  std::unique_ptr<Simulation> simulation;
+};
+
+// The files of a run in dir (removing those of an earlier run there): energies, trajectory, final
+// structure, and the end-of-run summary (a minimisation's own for type = "minimize").
+void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir);
+
+}  // namespace vimd
