@@ -15,3 +15,9 @@ add_test(NAME study_quick
          COMMAND ${PY} ${CMAKE_SOURCE_DIR}/validation/check_report.py --run-quick
                  --out ${CMAKE_BINARY_DIR}/report-quick --vimd $<TARGET_FILE:vimd>)
 set_tests_properties(study_quick PROPERTIES TIMEOUT 900)
+# The Python module (issue 11): energies and trajectories equal to the command line's bit for bit,
+# errors as exceptions. Debian's python3-pytest, the module from build/python.
+add_test(NAME python_module
+         COMMAND ${PY} -m pytest -q -p no:cacheprovider ${CMAKE_SOURCE_DIR}/tests/python)
+set_tests_properties(python_module PROPERTIES ENVIRONMENT
+                     "OMP_NUM_THREADS=2;VIMD_CLI=$<TARGET_FILE:vimd>;PYTHONPATH=$<TARGET_FILE_DIR:vimd_python>")
