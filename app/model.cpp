@@ -47,8 +47,9 @@ void add_output_observers(Run& run, const RunConfig& config, const std::filesyst
   if (energy_every > 0) simulation.add_observer(std::make_unique<EnergyWriter>(dir, energy_every));
   if (config.output.trajectory_every > 0)
     simulation.add_observer(std::make_unique<TrajectoryWriter>(dir, config.output.trajectory_every));
-  simulation.add_observer(std::make_unique<FinalStructureWriter>(dir));
-  if (config.integrator.type == "minimize")
+  const bool minimize = config.integrator.type == "minimize";
+  simulation.add_observer(std::make_unique<FinalStructureWriter>(dir, !minimize));
+  if (minimize)
     simulation.add_observer(std::make_unique<MinimizationReporter>(dir, config.integrator.emtol, stdout));
   else
     simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));

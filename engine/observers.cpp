@@ -115,7 +115,7 @@ void TrajectoryWriter::finish(const RunInfo&, const State&, const RunTotals&) {
 
 void FinalStructureWriter::finish(const RunInfo& info, const State& state, const RunTotals&) {
   const System& system = info.problem.system;
-  write_gro(path_, system.title, system, state.q, &state.v, system.box);
+  write_gro(path_, system.title, system, state.q, velocities_ ? &state.v : nullptr, system.box);
 }
 
 // ---------------------------------------------------------------- progress

@@ -56,10 +56,12 @@ class TrajectoryWriter : public Observer {
   std::unique_ptr<TrrWriter> writer_;
 };
 
-// confout.gro at the end of a successful run.
+// confout.gro at the end of a successful run; without velocities when they mean nothing (a
+// minimisation), so a run from it generates them from its temperature.
 class FinalStructureWriter : public Observer {
  public:
-  explicit FinalStructureWriter(const std::filesystem::path& dir) : path_(dir / "confout.gro") {}
+  explicit FinalStructureWriter(const std::filesystem::path& dir, bool velocities = true)
+      : path_(dir / "confout.gro"), velocities_(velocities) {}
   long every() const override { return 0; }
   bool needs_sample() const override { return false; }
   void observe(const RunInfo&, const State&, const Sample&) override {}
@@ -67,6 +69,7 @@ class FinalStructureWriter : public Observer {
 
  private:
   std::filesystem::path path_;
+  bool velocities_;
 };
 
 // A bar with ETA and ns/day on a terminal; a plain line every 10% otherwise.

@@ -7,7 +7,8 @@
 #   inputs/make_tip3p.sh            # build when conf.gro is missing
 #   inputs/make_tip3p.sh --force    # rebuild (gmx solvate is deterministic: same files)
 #
-# run_min.toml minimises it; run_nvt.toml equilibrates the minimised structure at 300 K.
+# run_min.toml minimises it, run_nvt.toml equilibrates the result at 300 K, run_nve.toml continues
+# NVE (those run files are kept by hand, not generated).
 set -euo pipefail
 GMX=${GMX:-gmx}
 dest=$(cd "$(dirname "$0")" && pwd)/tip3p_solvated
