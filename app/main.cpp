@@ -13,6 +13,7 @@
 #include "engine/input.hpp"
 #include "engine/observers.hpp"
 #include "engine/simulation.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
@@ -35,6 +36,17 @@ Model build_model(const fs::path& config_file) {
   m.constraints = Constraints(system.constraints, system.n_atoms(), system.box);
   m.inverse_mass = system.mass.cwiseInverse();
   return m;
+}
+
+// The pair kernels' SIMD target and width, e.g. "AVX2 (4 doubles per vector)".
+std::string simd_description() {
+  return simd::target_name() + " (" + std::to_string(simd::lanes()) + " doubles per vector)";
+}
+
+std::vector<std::pair<std::string, std::string>> platform_facts() {
+  return {{"simd_target", simd::target_name()},
+          {"simd_lanes", std::to_string(simd::lanes())},
+          {"threads", std::to_string(omp_get_max_threads())}};
 }
 
 int run_command(const fs::path& config_file, const std::string& out_override, long steps_override) {
@@ -69,12 +81,12 @@ int run_command(const fs::path& config_file, const std::string& out_override, lo
   if (config.output.trajectory_every > 0)
     simulation.add_observer(std::make_unique<TrajectoryWriter>(dir, config.output.trajectory_every));
   simulation.add_observer(std::make_unique<FinalStructureWriter>(dir));
-  simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));
+  simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout, platform_facts()));
   simulation.add_observer(std::make_unique<ProgressReporter>(stderr));
 
-  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, output in %s\n",
+  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, SIMD %s, output in %s\n",
               config.file.string().c_str(), system.n_atoms(), integrator->name().c_str(), config.integrator.dt, steps,
-              omp_get_max_threads(), dir.string().c_str());
+              omp_get_max_threads(), simd_description().c_str(), dir.string().c_str());
   std::fflush(stdout);
   simulation.run(state, steps);
   return 0;
@@ -138,6 +150,10 @@ int check_command(const fs::path& config_file) {
               c.integrator.steps, c.integrator.steps * c.integrator.dt);
   std::printf("output      %s (trajectory every %ld, energies every %ld steps)\n", c.output.dir.string().c_str(),
               c.output.trajectory_every, c.output.energy_every);
+  std::string targets;
+  for (const auto& t : simd::available_targets()) targets += (targets.empty() ? "" : ", ") + t;
+  std::printf("platform    SIMD %s, chosen at run time from %s; %d OpenMP threads\n", simd_description().c_str(),
+              targets.c_str(), omp_get_max_threads());
   return 0;
 }
 
@@ -146,8 +162,14 @@ int check_command(const fs::path& config_file) {
 int main(int argc, char** argv) {
   CLI::App app{"vimd: molecular dynamics with RATTLE and variational integrators of any order"};
   app.require_subcommand(1);
+  // Options of the program, accepted before or after the subcommand (`vimd run X.toml --threads 2`).
+  app.fallthrough();
   int threads = 0;
-  app.add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)");
+  app.add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(CLI::PositiveNumber);
+  std::string simd_target;
+  app.add_option("--simd", simd_target,
+                 "SIMD target of the pair kernels, e.g. AVX2 (default: the best this CPU runs; `vimd check` lists them)");
 
   std::string config, out;
   long steps = -1;
@@ -165,6 +187,7 @@ int main(int argc, char** argv) {
   if (threads > 0) omp_set_num_threads(threads);
 
   try {
+    if (!simd_target.empty()) simd::use_target(simd_target);
     if (run->parsed()) return run_command(config, out, steps);
     if (energy->parsed()) return energy_command(config, json);
     return check_command(config);

@@ -4,7 +4,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-packages=(g++ cmake make pkg-config libeigen3-dev libgtest-dev libtomlplusplus-dev libcli11-dev
+packages=(g++ cmake make pkg-config libeigen3-dev libgtest-dev libtomlplusplus-dev libcli11-dev libhwy-dev
           gromacs time python3-numpy python3-scipy python3-matplotlib python3-mdanalysis)
 missing=()
 for p in "${packages[@]}"; do

@@ -179,8 +179,9 @@ EnergyStatistics energy_statistics(const std::vector<double>& time, const std::v
   return s;
 }
 
-SummaryReporter::SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out)
-    : every_(every), dir_(dir), out_(out) {}
+SummaryReporter::SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out,
+                                 std::vector<std::pair<std::string, std::string>> platform)
+    : every_(every), dir_(dir), out_(out), platform_(std::move(platform)) {}
 
 void SummaryReporter::observe(const RunInfo& info, const State&, const Sample& s) {
   time_.push_back(s.time);
@@ -220,6 +221,11 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
                time_.size(), stats.rms_fluctuation, stats.detrended_fluctuation, mean(temperature_), max_constraint,
                totals.wall_seconds, 1e3 * totals.wall_seconds / steps, rate, totals.force_evaluations / steps,
                totals.hessian_evaluations / steps, totals.neighbor_rebuilds);
+  if (!platform_.empty()) {
+    std::fprintf(out_, "  platform         ");
+    for (const auto& [key, value] : platform_) std::fprintf(out_, " %s %s;", key.c_str(), value.c_str());
+    std::fprintf(out_, "\n");
+  }
   for (std::size_t k = 0; k < diagnostics_.size(); ++k)
     std::fprintf(out_, "  %-17s mean %.4g\n", info.diagnostic_names[k].c_str(), mean(diagnostics_[k]));
   std::fflush(out_);
@@ -242,6 +248,7 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
         << "  \"hessian_evaluations_per_step\": " << number(totals.hessian_evaluations / steps) << ",\n"
         << "  \"neighbor_rebuilds\": " << totals.neighbor_rebuilds << ",\n"
         << "  \"mean_iterations\": " << number(totals.solver_iterations / steps);
+    for (const auto& [key, value] : platform_) out << ",\n  \"" << key << "\": \"" << value << "\"";
     for (std::size_t k = 0; k < diagnostics_.size(); ++k)
       out << ",\n  \"mean_" << info.diagnostic_names[k] << "\": " << number(mean(diagnostics_[k]));
     out << "\n}\n";

@@ -98,7 +98,10 @@ EnergyStatistics energy_statistics(const std::vector<double>& time, const std::v
 // Prints the end-of-run summary to `out` and writes summary.json into dir.
 class SummaryReporter : public Observer {
  public:
-  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out);
+  // platform: facts about where the run ran (e.g. {"simd_target", "AVX2"}, {"threads", "2"}), printed
+  // next to the cost and written to summary.json as strings, so every speed figure names its machine.
+  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out,
+                  std::vector<std::pair<std::string, std::string>> platform = {});
   long every() const override { return every_; }
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
@@ -107,6 +110,7 @@ class SummaryReporter : public Observer {
   long every_;
   std::filesystem::path dir_;
   std::FILE* out_;
+  std::vector<std::pair<std::string, std::string>> platform_;
   std::vector<double> time_, total_, temperature_, constraint_rms_;
   std::vector<std::vector<double>> diagnostics_;
 };

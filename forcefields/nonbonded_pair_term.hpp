@@ -1,7 +1,7 @@
 #pragma once
 // The nonbonded pair term: one OpenMP pair loop over the cluster-pair Verlet list, evaluating the
 // Lennard-Jones kernel (lennard_jones.hpp) and the reaction-field Coulomb kernel (reaction_field.hpp)
-// for every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
+// with the SIMD kernels of the CPU's best target (nonbonded_kernels.hpp) for every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
 //   V = Σ_{i<j, not excluded, r<rc} [V_LJ(r) + V_RF(r)] + Σ_{excluded, r<rc} V_RF,excl(r) + Σ_i V_RF,self
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
@@ -16,8 +16,7 @@
 #include "engine/force_field.hpp"
 #include "engine/neighbor_list.hpp"
 #include "engine/system.hpp"
-#include "forcefields/lennard_jones.hpp"
-#include "forcefields/reaction_field.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 
 namespace vimd {
 
