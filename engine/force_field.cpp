@@ -34,6 +34,10 @@ void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
   ++hessian_evaluations_;
 }
 
+void ForceField::fix_pair_set(const Coords* q) {
+  for (auto& t : terms_) t->fix_pair_set(q);
+}
+
 long ForceField::neighbor_rebuilds() const {
   long n = 0;
   for (const auto& t : terms_) n += t->rebuilds();

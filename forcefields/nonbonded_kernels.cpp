@@ -38,8 +38,8 @@ HWY_INLINE void load_half(const PairView& d, int h, HalfData& hi) {
 }
 
 template <VdwModifier M, bool kCoulomb>
-void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
-                  double* half_coulomb, std::uint32_t* inside_masks) {
+void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy, double* fz,
+                  double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
   const unsigned lane_bits = (1u << lanes) - 1;
   const SimdDouble one = simd_broadcast(1.0), zero = simd_zero();
@@ -55,6 +55,7 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       const Vec3& shift = d.shifts[entry.shift];
+      const std::uint32_t mask = masks ? masks[e] : entry.mask;
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += lanes) {
         const int jb = entry.j_cluster * kC + js;
@@ -63,14 +64,14 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
         SimdDouble fxj = zero, fyj = zero, fzj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ++ii) {
-          const unsigned bits = (entry.mask >> (ii * kC + js)) & lane_bits;
+          const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
           const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
           const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
           const SimdMask inside = mask_from_bits(bits) & (r2 < d.cutoff2);
           if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
           const SimdDouble r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
-          const SimdDouble rinv = 1.0 / simd_sqrt(r2s);
+          const SimdDouble rinv = simd_rsqrt(r2s);
           const SimdDouble rinv2 = rinv * rinv;
           SimdDouble v, g;
           lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
@@ -147,7 +148,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
           const SimdMask inside = mask_from_bits(bits) & (r2 < d.cutoff2);
           const SimdDouble r2s = select(inside, r2, one);
-          const SimdDouble rinv = 1.0 / simd_sqrt(r2s);
+          const SimdDouble rinv = simd_rsqrt(r2s);
           const SimdDouble rinv2 = rinv * rinv;
           SimdDouble a, b;
           lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
@@ -178,6 +179,33 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
       ox[ib + ii] += simd_sum(oxi[ii]);
       oy[ib + ii] += simd_sum(oyi[ii]);
       oz[ib + ii] += simd_sum(ozi[ii]);
+    }
+  }
+}
+
+void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks) {
+  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  const unsigned lane_bits = (1u << lanes) - 1;
+  for (int h = h0; h < h1; ++h) {
+    HalfData hi;
+    load_half(d, h, hi);
+    for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
+      const NeighborList::Entry entry = d.entries[e];
+      const Vec3& shift = d.shifts[entry.shift];
+      std::uint32_t inside_bits = 0;
+      for (int js = 0; js < kC; js += lanes) {
+        const int jb = entry.j_cluster * kC + js;
+        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                         zj = simd_load(d.z + jb) + shift[2];
+        for (int ii = 0; ii < kH; ++ii) {
+          const unsigned bits = (entry.mask >> (ii * kC + js)) & lane_bits;
+          if (bits == 0) continue;
+          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+          const SimdMask inside = mask_from_bits(bits) & (dx * dx + dy * dy + dz * dz < d.cutoff2);
+          inside_bits |= bits_from_mask(inside) << (ii * kC + js);
+        }
+      }
+      inside_masks[e] = inside_bits;
     }
   }
 }
@@ -221,6 +249,7 @@ ForceKernel ForceKernelFor(VdwModifier m, bool coulomb) {
 HessianKernel HessianKernelFor(VdwModifier m, bool coulomb) {
   return coulomb ? hessian_kernel_of<true>(m) : hessian_kernel_of<false>(m);
 }
+MaskKernel MaskKernelFor() { return mask_halves; }
 std::int64_t Target() { return HWY_TARGET; }
 int Lanes() { return static_cast<int>(hn::Lanes(SimdTag())); }
 
@@ -237,6 +266,7 @@ namespace vimd {
 
 HWY_EXPORT(ForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
+HWY_EXPORT(MaskKernelFor);
 HWY_EXPORT(Target);
 HWY_EXPORT(Lanes);
 
@@ -253,6 +283,8 @@ HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb) {
   if (!kernel) throw std::logic_error("unknown VdwModifier");
   return kernel;
 }
+
+MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
 
 std::string target_name() { return hwy::TargetName(HWY_DYNAMIC_DISPATCH(Target)()); }
 int lanes() { return HWY_DYNAMIC_DISPATCH(Lanes)(); }

@@ -33,10 +33,13 @@ struct PairView {
 
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
-// on the thread count. If inside_masks is not null, inside_masks[e] receives the bits of entry e's
-// pairs that were inside the cut-off.
-using ForceKernel = void (*)(const PairView&, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
-                             double* half_coulomb, std::uint32_t* inside_masks);
+// on the thread count. masks[e] selects the pairs of entry e (null: the list's own masks); a pair
+// counts if it is selected and inside the view's cut-off. If inside_masks is not null,
+// inside_masks[e] receives the bits of entry e's pairs that counted.
+using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy,
+                             double* fz, double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
+// inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1).
+using MaskKernel = void (*)(const PairView&, int h0, int h1, std::uint32_t* inside_masks);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz); masks[e] selects the pairs of entry e (the
 // list's own masks, or the inside masks a force pass at the same positions recorded).
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
@@ -45,6 +48,7 @@ using HessianKernel = void (*)(const PairView&, const double* ux, const double* 
 namespace simd {
 
 ForceKernel force_kernel(VdwModifier modifier, bool coulomb);
+MaskKernel mask_kernel();
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #include "engine/errors.hpp"
@@ -14,8 +15,8 @@ namespace vimd {
 namespace {
 
 // Reaction-field terms of the excluded pairs [p0, p1) (GROMACS keeps k_rf r² − c_rf for them).
-double excluded_forces(const PairView& d, const NeighborList::ExcludedPair* excluded, int p0, int p1, double* fx,
-                       double* fy, double* fz) {
+double excluded_forces(const PairView& d, const NeighborList::ExcludedPair* excluded, double cutoff2, int p0, int p1,
+                       double* fx, double* fy, double* fz) {
   double e_coulomb = 0;
   for (int p = p0; p < p1; ++p) {
     const NeighborList::ExcludedPair& pair = excluded[p];
@@ -23,7 +24,7 @@ double excluded_forces(const PairView& d, const NeighborList::ExcludedPair* excl
     const int i = pair.i_slot, j = pair.j_slot;
     const double dx = d.x[i] - d.x[j] - shift[0], dy = d.y[i] - d.y[j] - shift[1], dz = d.z[i] - d.z[j] - shift[2];
     const double r2 = dx * dx + dy * dy + dz * dz;
-    if (r2 >= d.cutoff2) continue;
+    if (r2 >= cutoff2) continue;
     double v, g;
     rf_excluded_energy_force(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j], r2, v, g);
     e_coulomb += v;
@@ -37,14 +38,14 @@ double excluded_forces(const PairView& d, const NeighborList::ExcludedPair* excl
   return e_coulomb;
 }
 
-void excluded_hessian(const PairView& d, const NeighborList::ExcludedPair* excluded, const double* ux,
+void excluded_hessian(const PairView& d, const NeighborList::ExcludedPair* excluded, double cutoff2, const double* ux,
                       const double* uy, const double* uz, int p0, int p1, double* ox, double* oy, double* oz) {
   for (int p = p0; p < p1; ++p) {
     const NeighborList::ExcludedPair& pair = excluded[p];
     const Vec3& shift = d.shifts[pair.shift];
     const int i = pair.i_slot, j = pair.j_slot;
     const double dx = d.x[i] - d.x[j] - shift[0], dy = d.y[i] - d.y[j] - shift[1], dz = d.z[i] - d.z[j] - shift[2];
-    if (dx * dx + dy * dy + dz * dz >= d.cutoff2) continue;
+    if (dx * dx + dy * dy + dz * dz >= cutoff2) continue;
     const double a = rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j]);
     const double hx = a * (ux[i] - ux[j]), hy = a * (uy[i] - uy[j]), hz = a * (uz[i] - uz[j]);
     ox[i] += hx;
@@ -102,8 +103,46 @@ void NonbondedPairTerm::prepare(const Coords& q) {
   if (q.cols() != n_atoms_)
     throw std::invalid_argument("NonbondedPairTerm: " + std::to_string(q.cols()) + " positions for " +
                                 std::to_string(n_atoms_) + " atoms");
-  list_.update(q);
+  // A fixed pair set needs no new pairs, and a rebuild would renumber the entries it refers to.
+  if (!pair_set_fixed_) list_.update(q);
   refresh_layout();
+}
+
+PairView NonbondedPairTerm::pair_view() const {
+  // With a fixed pair set the masks alone decide; its pairs interact wherever they go.
+  const double cutoff2 = pair_set_fixed_ ? std::numeric_limits<double>::infinity() : cutoff2_;
+  return {x_.data(),
+          y_.data(),
+          z_.data(),
+          slot_charge_.data(),
+          slot_type_.data(),
+          slot_c6_.data(),
+          slot_c12_.data(),
+          static_cast<std::size_t>(list_.n_slots()),
+          list_.entries().data(),
+          list_.half_start().data(),
+          list_.shift_vectors().data(),
+          cutoff2,
+          lj_,
+          rf_};
+}
+
+void NonbondedPairTerm::fix_pair_set(const Coords* q) {
+  pair_set_fixed_ = false;
+  if (!q) return;
+  prepare(*q);
+  fixed_masks_.resize(list_.entries().size());
+  const PairView view = pair_view();
+  const MaskKernel kernel = simd::mask_kernel();
+  const auto& half_start = list_.half_start();
+  constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
+#pragma omp parallel if (list_.entries().size() >= kParallelEntries)
+  {
+    list_.pack_positions(*q, x_.data(), y_.data(), z_.data());
+    const auto [h0, h1] = half_block(half_start, omp_get_thread_num(), omp_get_num_threads());
+    kernel(view, h0, h1, fixed_masks_.data());
+  }
+  pair_set_fixed_ = true;
 }
 
 void NonbondedPairTerm::refresh_layout() {
@@ -182,20 +221,7 @@ constexpr int kExcludedBlock = 1024;
 
 void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
   prepare(q);
-  const PairView view{x_.data(),
-                      y_.data(),
-                      z_.data(),
-                      slot_charge_.data(),
-                      slot_type_.data(),
-                      slot_c6_.data(),
-                      slot_c12_.data(),
-                      static_cast<std::size_t>(list_.n_slots()),
-                      list_.entries().data(),
-                      list_.half_start().data(),
-                      list_.shift_vectors().data(),
-                      cutoff2_,
-                      lj_,
-                      rf_};
+  const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
@@ -207,13 +233,14 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   double* half_lj = partial_energies_.data();
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
-  std::uint32_t* inside_masks = hessian_requested_ ? record_inside_masks(q).data() : nullptr;
+  const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : nullptr;
+  std::uint32_t* inside_masks = hessian_requested_ && !pair_set_fixed_ ? record_inside_masks(q).data() : nullptr;
   run_parallel([&] { list_.pack_positions(q, x_.data(), y_.data(), z_.data()); },
                [&](int t, int nt, double* fx, double* fy, double* fz) {
                  const auto [h0, h1] = half_block(half_start, t, nt);
-                 pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
+                 pair_kernel(view, masks, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
                  for (int b = t; b < n_blocks; b += nt)
-                   block_coulomb[b] = excluded_forces(view, excluded, b * kExcludedBlock,
+                   block_coulomb[b] = excluded_forces(view, excluded, cutoff2_, b * kExcludedBlock,
                                                       std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
                },
                f);
@@ -228,29 +255,16 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
 void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
   hessian_requested_ = true;
   prepare(q);
-  const PairView view{x_.data(),
-                      y_.data(),
-                      z_.data(),
-                      slot_charge_.data(),
-                      slot_type_.data(),
-                      slot_c6_.data(),
-                      slot_c12_.data(),
-                      static_cast<std::size_t>(list_.n_slots()),
-                      list_.entries().data(),
-                      list_.half_start().data(),
-                      list_.shift_vectors().data(),
-                      cutoff2_,
-                      lj_,
-                      rf_};
+  const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
-  const std::uint32_t* masks = find_inside_masks(q);
+  const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : find_inside_masks(q);
   if (masks) {
-    ++hessian_cache_hits_;
+    if (!pair_set_fixed_) ++hessian_cache_hits_;
   } else {
     list_masks_.resize(list_.entries().size());
     for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = list_.entries()[e].mask;
@@ -265,7 +279,7 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
         const auto [h0, h1] = half_block(half_start, t, nt);
         pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);
         for (int b = t; b < n_blocks; b += nt)
-          excluded_hessian(view, excluded, ux_.data(), uy_.data(), uz_.data(), b * kExcludedBlock,
+          excluded_hessian(view, excluded, cutoff2_, ux_.data(), uy_.data(), uz_.data(), b * kExcludedBlock,
                            std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
       },
       out);

@@ -28,6 +28,7 @@ class NonbondedPairTerm : public ForceTerm {
   void add_forces(const Coords& q, Coords& f, std::span<double> energies) override;
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override;
   void prepare(const Coords& q) override;
+  void fix_pair_set(const Coords* q) override;
   long rebuilds() const override { return list_.builds(); }
 
   const NeighborList& neighbor_list() const { return list_; }
@@ -58,6 +59,7 @@ class NonbondedPairTerm : public ForceTerm {
   const std::uint32_t* find_inside_masks(const Coords& q);
   static bool same_positions(const Coords& a, const Coords& b);
   void refresh_layout();  // slot-ordered charges and types after a list rebuild
+  PairView pair_view() const;
   void ensure_buffers();
   template <class Pack, class Kernel>
   void run_parallel(Pack&& pack, Kernel&& kernel, Coords& out);
@@ -85,6 +87,8 @@ class NonbondedPairTerm : public ForceTerm {
   std::vector<std::uint32_t> list_masks_;
   long cache_clock_ = 0, hessian_cache_hits_ = 0;
   bool hessian_requested_ = false;
+  bool pair_set_fixed_ = false;
+  std::vector<std::uint32_t> fixed_masks_;  // per list entry: the fixed set's pairs
 };
 
 }  // namespace vimd

@@ -206,6 +206,7 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   w.v = state.v;
   w.mass_q.set_point(w.q);
   w.mass_q.apply(w.v);
+  const FixedPairSet pair_set(problem.force_field, w.q);  // as a step from w₀ would fix it (see step())
   forward_segments(w, w.q, w.v, state.step);
 
   // p⁺(w₀), p⁻(w₀) with w₀ fixed: the same residual, p̄ replaced by the unknown p⁻ (spec §6, init).
@@ -366,6 +367,12 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   const Eigen::VectorXd& mass = problem.system.mass;
   const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
 
+  // One potential for the whole step: the pairs inside the cut-off at q̄ (known before the solve),
+  // each continued smoothly past the cut-off. The step's discrete Lagrangian L_h,k is then smooth,
+  // so the iteration converges to any tolerance; the steps' Lagrangians differ only by pairs at the
+  // cut-off. The map (q̄_k, p̄_k) ↦ (q̄_k+1, p̄_k+1) is still the one of a discrete Lagrangian (L_h,k
+  // for this step), hence symplectic, and V_k is translation invariant, so Σ p̄ is conserved.
+  const FixedPairSet pair_set(problem.force_field, w.qbar);
   predict(w, state, step);
   w.history_start = 0;
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.
