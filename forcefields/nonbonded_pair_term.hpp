@@ -30,6 +30,8 @@ class NonbondedPairTerm : public ForceTerm {
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override;
   void prepare(const Coords& q) override;
   long rebuilds() const override { return list_.builds(); }
+  void save(Carried& out) const override;
+  void restore(const Carried& in) override;
 
   const NeighborList& neighbor_list() const { return list_; }
   // Hessian–vector products that reused the cut-off masks of an earlier force evaluation.

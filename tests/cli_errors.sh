@@ -8,9 +8,13 @@ failures=0
 expect_error() {  # name, expected exit code, expected text, command...
   local name=$1 code=$2 text=$3; shift 3
   local out rc
-  out=$("$@" 2>&1); rc=$?
+  "$@" > "$work/stdout" 2> "$work/stderr"; rc=$?
+  out=$(cat "$work/stdout" "$work/stderr")
   if [[ $rc -ne $code || "$out" != *"$text"* ]]; then
     echo "FAIL $name: exit $rc (wanted $code), output: $out"; failures=$((failures + 1))
+  elif [[ $(tail -c 1 "$work/stderr" | od -An -c | tr -d ' ') != '\n' ]]; then
+    # The message must end its line, or the shell prompt (or the next message) runs on.
+    echo "FAIL $name: the error message does not end with a newline: $out"; failures=$((failures + 1))
   else
     echo "ok   $name: $out" | head -1
   fi
@@ -38,5 +42,19 @@ expect_error "divergent run" 3 "did not converge" "$vimd" run "$work/blowup.toml
 [[ ! -e "$work/blowup/confout.gro" && ! -e "$work/blowup/energy.csv" ]] || {
   echo "FAIL a failed run left complete-looking output"; failures=$((failures + 1)); }
 
-echo "$((5 - failures)) passed, $failures failed"
+# energy and check need no velocities (GROMACS's spc216.gro and gmx solvate output have none); run does.
+awk 'NR <= 2 { print; next } NF >= 9 { printf "%s\n", substr($0, 1, 44); next } { print }' "$water/conf.gro" \
+  > "$work/novel.gro"
+sed -e "s|$water/conf.gro|$work/novel.gro|" -e "s/stpes/steps/" "$work/typo.toml" > "$work/novel.toml"
+for command in check energy; do
+  if "$vimd" $command "$work/novel.toml" > "$work/novel.$command" 2>&1; then
+    echo "ok   $command without velocities"
+  else
+    echo "FAIL $command without velocities: $(cat "$work/novel.$command")"; failures=$((failures + 1))
+  fi
+done
+expect_error "run without velocities" 2 "has no velocities: set [integrator] temperature" \
+  "$vimd" run "$work/novel.toml" --out "$work/novel"
+
+echo "$((8 - failures)) passed, $failures failed"
 [[ $failures -eq 0 ]]
