@@ -1,11 +1,13 @@
 // vimd: the composition root. Reads a run config, builds the force field, constraints and
 // integrator from their registries, and hands them to the one simulation loop.
 #include <omp.h>
+#include <sys/stat.h>
 
 #include <CLI/CLI.hpp>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -63,9 +65,11 @@ class Fingerprint {
   std::uint64_t hash_ = 14695981039346656037ull;
 };
 
+// The shortest of %.15g / %.17g that reads back as x: exact, and 0.0005 rather than 0.00050000000000000001.
 std::string text(double x) {
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
+  std::snprintf(buf, sizeof buf, "%.15g", x);
+  if (std::strtod(buf, nullptr) != x) std::snprintf(buf, sizeof buf, "%.17g", x);
   return buf;
 }
 
@@ -126,15 +130,24 @@ constexpr const char* kRunFiles[] = {"energy.xvg", "energy.csv", "traj.trr", "co
 void prepare_output_dir(const fs::path& dir, bool overwrite) {
   std::error_code error;
   fs::create_directories(dir, error);
-  if (error) throw InputError(dir.string(), 0, "cannot create the output directory: " + error.message());
-  if (!fs::is_directory(dir)) throw InputError(dir.string(), 0, "the output path exists and is not a directory");
-  const fs::path probe = dir / ".vimd-write-test";
-  if (std::FILE* f = std::fopen(probe.c_str(), "w")) {
-    std::fclose(f);
-    fs::remove(probe);
-  } else {
-    throw InputError(dir.string(), 0, std::string("cannot write in the output directory: ") + std::strerror(errno));
+  if (error || !fs::is_directory(dir)) {
+    struct stat st;
+    std::string reason = error ? error.message() : "it exists and is not a directory";
+    if (::stat(dir.c_str(), &st) != 0 && errno == ENOTDIR)  // e.g. a symbolic link into a regular file
+      reason = "part of its path is not a directory";
+    else if (::stat(dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+      reason = "it exists and is not a directory";
+    throw InputError(dir.string(), 0, "cannot create the output directory: " + reason);
   }
+  // A byte written and flushed: fails on a read-only or full file system before any step is spent.
+  const fs::path probe = dir / ".vimd-write-test";
+  std::FILE* f = std::fopen(probe.c_str(), "w");
+  const bool written = f && std::fputs("vimd\n", f) >= 0 && std::fflush(f) == 0;
+  const int write_errno = errno;
+  if (f) std::fclose(f);
+  fs::remove(probe);
+  if (!written)
+    throw InputError(dir.string(), 0, std::string("cannot write in the output directory: ") + std::strerror(write_errno));
   if (!overwrite) {
     if (fs::exists(dir / "summary.json"))
       throw InputError(dir.string(), 0,
@@ -164,6 +177,9 @@ std::string continue_command(const fs::path& config_file, const fs::path& dir, l
   if (steps_override >= 0) command += " --steps " + std::to_string(steps_override);
   return command;
 }
+
+// The output directory of the run under way, for the message when it fails.
+fs::path run_dir;
 
 int run_command(const fs::path& config_file, const RunOptions& options) {
   Model m = build_model(config_file);
@@ -223,6 +239,7 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
     std::printf("vimd run: continuing from step %ld (%s)\n", checkpoint.state.step, checkpoint_file.string().c_str());
   std::fflush(stdout);
   install_stop_handlers();
+  run_dir = dir;
   const RunTotals totals = continuing ? simulation.resume(checkpoint, checkpoint.first_step + steps, state)
                                       : simulation.run(state, steps);
   if (totals.stop_signal == 0) return 0;
@@ -335,6 +352,8 @@ int main(int argc, char** argv) {
   check->add_option("config", config, "run parameters (TOML)")->required();
   CLI11_PARSE(app, argc, argv);
   if (threads > 0) omp_set_num_threads(threads);
+  // Past a file-size limit, writes should fail with EFBIG (reported as an error), not kill vimd.
+  std::signal(SIGXFSZ, SIG_IGN);
 
   try {
     if (run->parsed()) return run_command(config, run_options);
@@ -345,7 +364,12 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const ConvergenceError& e) {
     print_error("", e.what());
-    print_error("", "the run stopped; files ending in .partial hold its output up to that point");
+    std::string where = "the run stopped";
+    if (!run_dir.empty()) {
+      where += "; the files ending in .partial in " + run_dir.string() + " hold its output up to its last good step";
+      if (fs::exists(run_dir / "last_good.gro")) where += ", " + (run_dir / "last_good.gro").string() + " that step's frame";
+    }
+    print_error("", where);
     return 3;
   } catch (const std::exception& e) {
     print_error("error: ", e.what());

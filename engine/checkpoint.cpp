@@ -97,7 +97,7 @@ class Reader {
 };
 
 [[noreturn]] void write_failed(const std::filesystem::path& file, const std::string& what) {
-  throw InputError(file.string(), 0, "cannot write the checkpoint: " + what + ": " + std::strerror(errno));
+  throw std::runtime_error(file.string() + ": cannot write the checkpoint (" + what + "): " + std::strerror(errno));
 }
 
 }  // namespace

@@ -28,7 +28,7 @@ std::ofstream open_output(const std::filesystem::path& path, std::ios::openmode 
 
 // After a flush or close: a full disk or a file-size limit shows up here.
 void check_stream(const std::ostream& out, const std::filesystem::path& path) {
-  if (!out) throw InputError(path.string(), 0, std::string("cannot write (disk full?): ") + std::strerror(errno));
+  if (!out) throw std::runtime_error(path.string() + ": cannot write (disk full?): " + std::strerror(errno));
 }
 
 std::string duration_text(double seconds) {

@@ -36,6 +36,7 @@ class EnergyWriter : public Observer {
   Carried checkpoint(const RunInfo&) override;
   void resume(const RunInfo&, const Carried&) override;
   void stop(const RunInfo&) override;
+  void fail(const RunInfo& info, const State&) override { stop(info); }
 
  private:
   void check_written();

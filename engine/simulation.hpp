@@ -77,7 +77,7 @@ struct CheckpointPolicy {
 // A run that cannot go on: a non-finite or absurd force, position, velocity or energy.
 class BlowUpError : public ConvergenceError {
  public:
-  BlowUpError(long step, const std::string& what) : ConvergenceError("the run", step, 0, 0, what) {}
+  BlowUpError(long step, const std::string& what) : ConvergenceError(what, step) {}
 };
 
 class Simulation {

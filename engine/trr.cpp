@@ -81,7 +81,7 @@ void TrrWriter::write(long step, double time, const Box& box, const Coords* x, c
   if (v) put_coords(*v);
   if (f) put_coords(*f);
   if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size() || std::fflush(out_) != 0)
-    throw std::runtime_error("cannot write " + path_.string() + ": " + std::strerror(errno));
+    throw std::runtime_error(path_.string() + ": cannot write (disk full?): " + std::strerror(errno));
 }
 
 }  // namespace vimd

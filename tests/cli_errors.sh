@@ -56,5 +56,20 @@ done
 expect_error "run without velocities" 2 "has no velocities: set [integrator] temperature" \
   "$vimd" run "$work/novel.toml" --out "$work/novel"
 
-echo "$((8 - failures)) passed, $failures failed"
+# A disk that fills up during the run (simulated with a file-size limit): a clear error, exit 1.
+sed -e "s/stpes = 10/steps = 2000/" "$work/typo.toml" > "$work/full.toml"
+printf '[forcefield]\nneighbor_skin = 0.03\n[output]\nenergy_every = 1\n' >> "$work/full.toml"
+expect_error "disk full during the run" 1 ".partial: cannot write (disk full?): File too large" \
+  bash -c "ulimit -f 40; exec \"\$0\" run \"\$1\" --out \"\$2\"" "$vimd" "$work/full.toml" "$work/full"
+
+# A run that blows up (20 fs on flexible water) stops at once, naming the atom, keeping the last
+# good frame; no NaN reaches a file.
+case_dir="$src/tests/bad_inputs/run_blows_up"
+expect_error "blow-up" 3 "blew up at step 1: 1 atom(s)" "$vimd" run "$case_dir/run.toml" --out "$work/blowup20"
+[[ -f "$work/blowup20/last_good.gro" ]] || { echo "FAIL blow-up: no last_good.gro"; failures=$((failures + 1)); }
+if grep -qil -e nan -e inf "$work/blowup20"/energy.*.partial; then
+  echo "FAIL blow-up: NaN or Inf in the energy files"; failures=$((failures + 1))
+fi
+
+echo "$((10 - failures)) passed, $failures failed"
 [[ $failures -eq 0 ]]
