@@ -24,7 +24,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
        {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
       {"integrator.tableau", {"a", "b", "c", "order"}},
-      {"output", {"dir", "trajectory_every", "energy_every"}},
+      {"output", {"dir", "trajectory_every", "energy_every", "checkpoint_every"}},
   };
   return tables;
 }
@@ -351,6 +351,11 @@ class ConfigReader {
     if (const auto* n = t.get("trajectory_every")) {
       out.trajectory_every = integer(*n, "trajectory_every");
       require(out.trajectory_every >= 0, *n, "trajectory_every must not be negative (0 disables the trajectory)");
+    }
+    if (const auto* n = t.get("checkpoint_every")) {
+      out.checkpoint_every = integer(*n, "checkpoint_every");
+      require(out.checkpoint_every >= 0, *n,
+              "checkpoint_every must not be negative (0: every 15 minutes of wall time and at the end)");
     }
     if (const auto* n = t.get("energy_every")) {
       out.energy_every = integer(*n, "energy_every");

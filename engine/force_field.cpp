@@ -44,4 +44,24 @@ long ForceField::neighbor_rebuilds() const {
   return n;
 }
 
+Carried ForceField::save() const {
+  Carried out;
+  for (std::size_t k = 0; k < terms_.size(); ++k) {
+    Carried term;
+    terms_[k]->save(term);
+    for (auto& [name, values] : term.items) out.items[std::to_string(k) + "/" + name] = std::move(values);
+  }
+  return out;
+}
+
+void ForceField::restore(const Carried& in) {
+  for (std::size_t k = 0; k < terms_.size(); ++k) {
+    const std::string prefix = std::to_string(k) + "/";
+    Carried term;
+    for (const auto& [name, values] : in.items)
+      if (name.starts_with(prefix)) term.items[name.substr(prefix.size())] = values;
+    terms_[k]->restore(term);
+  }
+}
+
 }  // namespace vimd

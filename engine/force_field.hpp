@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/carried.hpp"
 #include "engine/types.hpp"
 
 namespace vimd {
@@ -34,6 +35,10 @@ class ForceTerm {
   // energy jump between evaluations (see ForceField::fix_pair_set).
   virtual void fix_pair_set(const Coords* /*q*/) {}
   virtual long rebuilds() const { return 0; }
+  // Checkpoints: what changes results at round-off besides q (the neighbour list's build
+  // positions: the list's order is the summation order), and rebuilding from it.
+  virtual void save(Carried& /*out*/) const {}
+  virtual void restore(const Carried& /*in*/) {}
 };
 
 class ForceField {
@@ -54,6 +59,9 @@ class ForceField {
   long force_evaluations() const { return force_evaluations_; }
   long hessian_evaluations() const { return hessian_evaluations_; }
   long neighbor_rebuilds() const;
+  // Every term's save()/restore(), entries prefixed with the term's index.
+  Carried save() const;
+  void restore(const Carried& in);
 
   const std::vector<std::unique_ptr<ForceTerm>>& terms() const { return terms_; }
 

@@ -22,6 +22,13 @@ Coords maxwell_boltzmann_velocities(const System& system, double temperature, st
   return v;
 }
 
+void require_velocities(const RunInput& input) {
+  if (input.state.v.cols() == input.state.q.cols()) return;
+  throw InputError(input.config.file.string(), 0,
+                   input.config.structure.string() +
+                       " has no velocities: set [integrator] temperature to generate them (a run needs them)");
+}
+
 void scale_to_temperature(const System& system, double temperature, Coords& v) {
   const double kinetic = kinetic_energy(system.mass, v);
   const double target = 0.5 * system.degrees_of_freedom() * kBoltzmann * temperature;
@@ -49,9 +56,6 @@ RunInput read_run_input(const std::filesystem::path& config_file) {
   } else if (c.integrator.temperature) {
     in.state.v = maxwell_boltzmann_velocities(in.system, *c.integrator.temperature, c.integrator.seed);
     in.velocities_generated = true;
-  } else {
-    throw InputError(c.file.string(), 0,
-                     c.structure.string() + " has no velocities: set [integrator] temperature to generate them");
   }
   return in;
 }

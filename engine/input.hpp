@@ -12,8 +12,11 @@ struct RunInput {
   RunConfig config;
   System system;
   State state;  // positions (and velocities) from the .gro; forces not yet computed
-  bool velocities_generated = false;
+  bool velocities_generated = false;  // v empty when the .gro has none and no temperature is set
 };
+
+// InputError unless the input has velocities (read or generated): only a run needs them.
+void require_velocities(const RunInput& input);
 
 RunInput read_run_input(const std::filesystem::path& config_file);
 

@@ -51,6 +51,8 @@ class NeighborList {
   // Largest displacement of any atom since the last build, nm.
   double max_displacement(const Coords& q) const;
   long builds() const { return builds_; }
+  // Positions of the last build (empty before the first).
+  const Coords& built_at() const { return q_at_build_; }
 
   double cutoff() const { return cutoff_; }
   double skin() const { return skin_; }

@@ -33,8 +33,13 @@ class EnergyWriter : public Observer {
   void begin(const RunInfo&) override;
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  Carried checkpoint(const RunInfo&) override;
+  void resume(const RunInfo&, const Carried&) override;
+  void stop(const RunInfo&) override;
+  void fail(const RunInfo& info, const State&) override { stop(info); }
 
  private:
+  void check_written();
   long every_;
   PendingFile xvg_file_, csv_file_;
   std::ofstream xvg_, csv_;
@@ -49,6 +54,9 @@ class TrajectoryWriter : public Observer {
   void begin(const RunInfo&) override;
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  Carried checkpoint(const RunInfo&) override;
+  void resume(const RunInfo&, const Carried&) override;
+  void stop(const RunInfo&) override;
 
  private:
   long every_;
@@ -56,23 +64,31 @@ class TrajectoryWriter : public Observer {
   std::unique_ptr<TrrWriter> writer_;
 };
 
-// confout.gro at the end of a successful run.
+// Truncates a stopped run's partial output back to its size at the checkpoint (frames written
+// after it are written again); InputError if the file is missing or shorter.
+void truncate_to_checkpoint(const std::filesystem::path& partial, double bytes);
+
+// confout.gro at the end of a successful run; last_good.gro (the state before the failing step)
+// when a run fails.
 class FinalStructureWriter : public Observer {
  public:
-  explicit FinalStructureWriter(const std::filesystem::path& dir) : path_(dir / "confout.gro") {}
+  explicit FinalStructureWriter(const std::filesystem::path& dir) : dir_(dir) {}
   long every() const override { return 0; }
   bool needs_sample() const override { return false; }
   void observe(const RunInfo&, const State&, const Sample&) override {}
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  void fail(const RunInfo&, const State& last_good) override;
 
  private:
-  std::filesystem::path path_;
+  std::filesystem::path dir_;
 };
 
 // A bar with ETA and ns/day on a terminal; a plain line every 10% otherwise.
 class ProgressReporter : public Observer {
  public:
   explicit ProgressReporter(std::FILE* out);
+  // Ends an open bar line, so a message after a failed run starts on its own line.
+  ~ProgressReporter() override;
   long every() const override { return 1; }
   bool needs_sample() const override { return false; }
   void begin(const RunInfo&) override;
@@ -84,6 +100,7 @@ class ProgressReporter : public Observer {
   bool terminal_;
   std::chrono::steady_clock::time_point start_, last_print_;
   int last_decile_ = -1;
+  bool line_open_ = false;  // a bar was printed with \r and no newline yet
 };
 
 // Linear fit of the total energy against time.
@@ -105,6 +122,8 @@ class SummaryReporter : public Observer {
   long every() const override { return every_; }
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  Carried checkpoint(const RunInfo&) override;
+  void resume(const RunInfo&, const Carried&) override;
 
  private:
   long every_;

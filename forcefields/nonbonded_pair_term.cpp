@@ -145,6 +145,18 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   pair_set_fixed_ = true;
 }
 
+void NonbondedPairTerm::save(Carried& out) const {
+  if (list_.builds() > 0) out.put("neighbor_list_built_at", list_.built_at());
+}
+
+void NonbondedPairTerm::restore(const Carried& in) {
+  if (!in.has("neighbor_list_built_at")) return;
+  const Coords built_at = in.coords("neighbor_list_built_at");
+  if (built_at.cols() != n_atoms_) throw std::invalid_argument("NonbondedPairTerm::restore: wrong number of atoms");
+  list_.build(built_at);  // the same positions give the same list, hence the same summation order
+  refresh_layout();
+}
+
 void NonbondedPairTerm::refresh_layout() {
   if (layout_build_ == list_.builds()) return;
   const int n = list_.n_slots();

@@ -30,6 +30,8 @@ class NonbondedPairTerm : public ForceTerm {
   void prepare(const Coords& q) override;
   void fix_pair_set(const Coords* q) override;
   long rebuilds() const override { return list_.builds(); }
+  void save(Carried& out) const override;
+  void restore(const Carried& in) override;
 
   const NeighborList& neighbor_list() const { return list_; }
   // Hessian–vector products that reused the cut-off masks of an earlier force evaluation.

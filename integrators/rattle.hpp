@@ -7,11 +7,6 @@
 
 namespace vimd {
 
-// Puts the starting state on the constraint manifold (a .gro carries only 3 decimals):
-// positions by a mass-weighted projection (solve_positions with q_ref = q), velocities by the
-// M⁻¹-orthogonal projection onto the tangent space. Returns the position iterations.
-int constrain_start(const Problem& problem, State& state, double tolerance, int max_iterations);
-
 class Rattle : public Integrator {
  public:
   explicit Rattle(const IntegratorConfig& config);

@@ -15,3 +15,13 @@ add_test(NAME study_quick
          COMMAND ${PY} ${CMAKE_SOURCE_DIR}/validation/check_report.py --run-quick
                  --out ${CMAKE_BINARY_DIR}/report-quick --vimd $<TARGET_FILE:vimd>)
 set_tests_properties(study_quick PROPERTIES TIMEOUT 900)
+# Issue 10: frame 0 is the same whatever the integrator (the engine constrains the start once).
+add_test(NAME start_state
+         COMMAND bash ${CMAKE_SOURCE_DIR}/tests/start_state.sh $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}
+                 ${CMAKE_BINARY_DIR}/test-start-state)
+set_tests_properties(start_state PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")
+# Issue 10: a real SIGTERM to a running vimd, then --continue: the same outputs as without the stop.
+add_test(NAME stop_continue
+         COMMAND bash ${CMAKE_SOURCE_DIR}/tests/stop_continue.sh $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}
+                 ${CMAKE_BINARY_DIR}/test-stop-continue)
+set_tests_properties(stop_continue PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")

@@ -8,6 +8,7 @@
 #include <new>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include "dense_reference.hpp"
 #include "test_ff_systems.hpp"
@@ -523,13 +524,13 @@ TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
   state.q = q;
   state.v = testing::thermal_velocities(system, 300, 5);
   constraints.project_velocities(state.q, state.v, problem.inverse_mass);
-  for (auto [am, ap] : {std::pair{0.0, 1.0}, std::pair{-0.5, 0.5}}) {
+  // Without the fixed pair set, [0,1] stalled at step 52; [-1/2,1/2] costs twice as much per step.
+  for (auto [am, ap, steps] : {std::tuple{0.0, 1.0, 60}, std::tuple{-0.5, 0.5, 20}}) {
     State s = state;
     const auto settings = make_settings("rk4", "rk4", 0.001, am, ap, "euclidean", 1e-12);
     VariationalIntegrator vi(settings);
     vi.init(problem, s);
     int iterations = 0;
-    const int steps = 60;
     for (int k = 0; k < steps; ++k) {
       StepReport r;
       ASSERT_NO_THROW(r = vi.step(problem, s)) << "bias [" << am << ", " << ap << "] step " << k + 1;
