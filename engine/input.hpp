@@ -1,6 +1,8 @@
 #pragma once
 // Reading a run's inputs: the TOML config, then its .top and .gro, checked against each other.
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "engine/config.hpp"
 #include "engine/state.hpp"
@@ -13,8 +15,14 @@ struct RunInput {
   System system;
   State state;  // positions (and velocities) from the .gro; forces not yet computed
   bool velocities_generated = false;
+  // Suspicious but runnable input (as grompp's warnings), each naming its file: the app prints them.
+  std::vector<std::string> warnings;
 };
 
+// Reads and cross-checks the inputs. Refused (InputError): a box shorter than twice cut-off plus
+// skin, atoms closer than 0.05 nm. Warned: a net charge with reaction-field or plain cut-off
+// Coulomb, dt above a tenth of the period of the fastest unconstrained bond, atom names that differ
+// between structure and topology.
 RunInput read_run_input(const std::filesystem::path& config_file);
 
 // Maxwell–Boltzmann velocities at `temperature` with zero total momentum.

@@ -15,3 +15,10 @@ add_test(NAME study_quick
          COMMAND ${PY} ${CMAKE_SOURCE_DIR}/validation/check_report.py --run-quick
                  --out ${CMAKE_BINARY_DIR}/report-quick --vimd $<TARGET_FILE:vimd>)
 set_tests_properties(study_quick PROPERTIES TIMEOUT 900)
+
+# The bad-input catalogue (issue 10): one directory per case under tests/bad_inputs, each with
+# the command, exit status and message fragment it expects.
+add_test(NAME bad_inputs
+         COMMAND ${PY} ${CMAKE_SOURCE_DIR}/tests/bad_inputs.py $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}/tests/bad_inputs
+                 ${CMAKE_BINARY_DIR}/test-bad-inputs)
+set_tests_properties(bad_inputs PROPERTIES TIMEOUT 600)
