@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -60,57 +61,16 @@ void check_box(const RunConfig& c, const Box& box, int box_line) {
                            " nm set in " + c.file.string() + ": use a larger box or a smaller cutoff or neighbor_skin");
 }
 
-// Overlapping atoms make the first force evaluation meaningless (or infinite); found through cells
-// at least kMinDistance wide, so a close pair is always in the same or neighbouring cells.
+// Overlapping atoms make the first force evaluation meaningless (or infinite).
 void check_overlaps(const System& s, const Coords& x, const Box& box, const std::filesystem::path& gro) {
-  constexpr double kMinDistance = 0.05;  // nm
-  std::array<long, 3> n_cells{};
-  for (int k = 0; k < 3; ++k)
-    n_cells[k] = box.length[k] > 0 ? std::max(1L, static_cast<long>(box.length[k] / kMinDistance)) : 0;
-  const auto cell_of = [&](const Vec3& r) {
-    std::array<long, 3> c{};
-    for (int k = 0; k < 3; ++k) {
-      if (n_cells[k] == 0) {
-        c[k] = static_cast<long>(std::floor(r[k] / kMinDistance));
-      } else {
-        const double wrapped = r[k] - box.length[k] * std::floor(r[k] / box.length[k]);
-        c[k] = std::min(n_cells[k] - 1, static_cast<long>(wrapped / box.length[k] * n_cells[k]));
-      }
-    }
-    return c;
-  };
-  std::map<std::array<long, 3>, std::vector<int>> cells;
-  for (int i = 0; i < s.n_atoms(); ++i) cells[cell_of(x.col(i))].push_back(i);
-
-  int first_i = -1, first_j = -1, pairs = 0;
-  double first_distance = 0;
-  for (int i = 0; i < s.n_atoms(); ++i) {
-    const auto home = cell_of(x.col(i));
-    std::set<std::array<long, 3>> visited;  // small periodic grids reach one cell by several shifts
-    for (long dx = -1; dx <= 1; ++dx)
-      for (long dy = -1; dy <= 1; ++dy)
-        for (long dz = -1; dz <= 1; ++dz) {
-          std::array<long, 3> c{home[0] + dx, home[1] + dy, home[2] + dz};
-          for (int k = 0; k < 3; ++k)
-            if (n_cells[k] > 0) c[k] = (c[k] + n_cells[k]) % n_cells[k];
-          if (!visited.insert(c).second) continue;
-          const auto it = cells.find(c);
-          if (it == cells.end()) continue;
-          for (int j : it->second) {
-            if (j <= i) continue;
-            const double d = box.minimum_image(x.col(i) - x.col(j)).norm();
-            if (d >= kMinDistance) continue;
-            if (++pairs == 1 || std::make_pair(i, j) < std::make_pair(first_i, first_j))
-              first_i = i, first_j = j, first_distance = d;
-          }
-        }
-  }
-  if (pairs > 0)
-    throw InputError(gro.string(), first_j + 3,
-                     "atoms " + describe_atom(s, first_i) + " at line " + std::to_string(first_i + 3) + " and " +
-                         describe_atom(s, first_j) + " are " + format("%.4f", first_distance) +
-                         " nm apart, closer than 0.05 nm: overlapping atoms give huge forces from the first step" +
-                         (pairs > 1 ? " (" + std::to_string(pairs) + " such pairs in all)" : std::string()));
+  const auto overlap = find_overlap(x, box, 0.05);
+  if (!overlap) return;
+  const auto [i, j, distance, pairs] = *overlap;
+  throw InputError(gro.string(), j + 3,
+                   "atoms " + describe_atom(s, i) + " at line " + std::to_string(i + 3) + " and " + describe_atom(s, j) +
+                       " are " + format("%.4f", distance) +
+                       " nm apart, closer than 0.05 nm: overlapping atoms give huge forces from the first step" +
+                       (pairs > 1 ? " (" + std::to_string(pairs) + " such pairs in all)" : std::string()));
 }
 
 std::optional<std::string> net_charge_warning(const System& s, const RunConfig& c) {
@@ -148,6 +108,54 @@ std::optional<std::string> time_step_warning(const System& s, const RunConfig& c
 }
 
 }  // namespace
+
+std::optional<Overlap> find_overlap(const Coords& x, const Box& box, double min_distance) {
+  // Cells at least min_distance wide: a close pair is always in the same or neighbouring cells.
+  std::array<long, 3> n_cells{};
+  for (int k = 0; k < 3; ++k)
+    n_cells[k] = box.length[k] > 0 ? std::max(1L, static_cast<long>(box.length[k] / min_distance)) : 0;
+  const auto cell_of = [&](const Vec3& r) {
+    std::array<long, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      if (n_cells[k] == 0) {
+        c[k] = static_cast<long>(std::floor(r[k] / min_distance));
+      } else {
+        const double wrapped = r[k] - box.length[k] * std::floor(r[k] / box.length[k]);
+        c[k] = std::min(n_cells[k] - 1, static_cast<long>(wrapped / box.length[k] * n_cells[k]));
+      }
+    }
+    return c;
+  };
+  const int n = static_cast<int>(x.cols());
+  std::map<std::array<long, 3>, std::vector<int>> cells;
+  for (int i = 0; i < n; ++i) cells[cell_of(x.col(i))].push_back(i);
+
+  std::optional<Overlap> found;
+  int pairs = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto home = cell_of(x.col(i));
+    std::set<std::array<long, 3>> visited;  // small periodic grids reach one cell by several shifts
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dz = -1; dz <= 1; ++dz) {
+          std::array<long, 3> c{home[0] + dx, home[1] + dy, home[2] + dz};
+          for (int k = 0; k < 3; ++k)
+            if (n_cells[k] > 0) c[k] = (c[k] + n_cells[k]) % n_cells[k];
+          if (!visited.insert(c).second) continue;
+          const auto it = cells.find(c);
+          if (it == cells.end()) continue;
+          for (int j : it->second) {
+            if (j <= i) continue;
+            const double d = box.minimum_image(x.col(i) - x.col(j)).norm();
+            if (d >= min_distance) continue;
+            ++pairs;
+            if (!found || std::pair(i, j) < std::pair(found->i, found->j)) found = Overlap{i, j, d, 0};
+          }
+        }
+  }
+  if (found) found->pairs = pairs;
+  return found;
+}
 
 RunInput read_run_input(const std::filesystem::path& config_file) {
   RunInput in;

@@ -1,6 +1,7 @@
 #pragma once
 // Reading a run's inputs: the TOML config, then its .top and .gro, checked against each other.
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,15 @@ struct RunInput {
 // Coulomb, dt above a tenth of the period of the fastest unconstrained bond, atom names that differ
 // between structure and topology.
 RunInput read_run_input(const std::filesystem::path& config_file);
+
+// The first pair of atoms (in atom order) nearer than min_distance (minimum image in the periodic
+// directions), with the number of such pairs; found through cells, in O(N).
+struct Overlap {
+  int i, j;  // i < j
+  double distance;
+  int pairs;
+};
+std::optional<Overlap> find_overlap(const Coords& x, const Box& box, double min_distance);
 
 // Maxwell–Boltzmann velocities at `temperature` with zero total momentum.
 Coords maxwell_boltzmann_velocities(const System& system, double temperature, std::uint64_t seed);
