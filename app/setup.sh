@@ -27,7 +27,7 @@ fi
 cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$root/build" -j"$(nproc)"
 if ((fuzz)); then
-  # clang is another compiler, so another tree; ccache is left out (it broke clang's sanitizer builds here).
+  # clang is another compiler, so another tree.
   CXX=clang++ cmake -S "$root" -B "$root/build-fuzz" -DCMAKE_BUILD_TYPE=Release -DVIMD_FUZZ=ON >/dev/null
   cmake --build "$root/build-fuzz" -j"$(nproc)"
 fi

@@ -128,7 +128,9 @@ class ConfigReader {
   // needs them nowhere else, and TOML allows them nowhere else but in quoted keys.
   void check_characters(const std::string& text) const {
     int line = 1;
-    bool value = false;               // after '=' of a key/value pair: strings here are values
+    bool value = false;               // after '=' of a key/value pair
+    bool string_value = false;        // the open string starts a value (else it is a key or garbage)
+    char last = '\n';                 // the last character outside strings, comments and blanks
     std::vector<char> open;           // enclosing '[' arrays and '{' inline tables of a value
     char quote = 0;                   // the open string's delimiter, 0 outside strings
     bool multi_line = false, comment = false;
@@ -146,28 +148,33 @@ class ConfigReader {
         ++line;
         comment = false;
         if (quote && !multi_line) quote = 0;  // an unterminated string: the parser reports it
-        if (!quote && open.empty()) value = false;
+        if (!quote && open.empty()) value = false, last = '\n';
         continue;
       }
       if (comment) continue;
       if (quote) {
-        if (byte >= 0x80 && (multi_line || !value))
-          refuse(std::string("non-ASCII character in a ") + (value ? "multi-line string" : "quoted key") +
+        if (byte >= 0x80 && (multi_line || !string_value))
+          refuse(std::string("non-ASCII character in a ") +
+                 (string_value ? "multi-line string" : "quoted key or misplaced string") +
                  ": a run file takes non-ASCII text only in comments and single-line string values");
         if (quote == '"' && c == '\\') {
           if (k + 1 < text.size() && text[k + 1] != '\n') ++k;  // the escaped character
         } else if (c == quote && (!multi_line || text.compare(k, 3, std::string(3, quote)) == 0)) {
           k += multi_line ? 2 : 0;
+          last = quote;
           quote = 0;
         }
         continue;
       }
       if (byte >= 0x80)
         refuse("non-ASCII character outside a string or comment (TOML keys, numbers and booleans are ASCII)");
+      if (c != ' ' && c != '\t' && c != '\r' && c != '#' && c != '"' && c != '\'') last = c;
       switch (c) {
         case '#': comment = true; break;
         case '"':
         case '\'':
+          // As the parser sees it: a value string only right after '=', or '[' / ',' in an array.
+          string_value = value && (last == '=' || last == '[' || last == ',');
           quote = c;
           multi_line = text.compare(k, 3, std::string(3, c)) == 0;
           k += multi_line ? 2 : 0;
