@@ -38,6 +38,7 @@ struct Model {
 
 Model build_model(const fs::path& config_file) {
   Model m{read_run_input(config_file), nullptr, {}, {}};
+  for (const auto& warning : m.input.warnings) std::fprintf(stderr, "vimd: warning: %s\n", warning.c_str());
   const System& system = m.input.system;
   m.force_field = make_force_field(system, m.input.config.forcefield);
   m.constraints = Constraints(system.constraints, system.n_atoms(), system.box);

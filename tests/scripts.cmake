@@ -25,3 +25,10 @@ add_test(NAME stop_continue
          COMMAND bash ${CMAKE_SOURCE_DIR}/tests/stop_continue.sh $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}
                  ${CMAKE_BINARY_DIR}/test-stop-continue)
 set_tests_properties(stop_continue PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")
+
+# The bad-input catalogue (issue 10): one directory per case under tests/bad_inputs, each with
+# the command, exit status and message fragment it expects.
+add_test(NAME bad_inputs
+         COMMAND ${PY} ${CMAKE_SOURCE_DIR}/tests/bad_inputs.py $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}/tests/bad_inputs
+                 ${CMAKE_BINARY_DIR}/test-bad-inputs)
+set_tests_properties(bad_inputs PROPERTIES TIMEOUT 600)

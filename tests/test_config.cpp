@@ -107,6 +107,10 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"negative_energy_every.toml", "energy_every must not be negative"},
       {"negative_checkpoint_every.toml", "checkpoint_every must not be negative"},
       {"infinite_dt.toml", "dt must be a finite number"},
+      {"control_character.toml", "control character 0x01"},
+      {"non_ascii_after_value.toml", "non-ASCII character outside a string or comment"},
+      {"non_ascii_key.toml", "non-ASCII character in a quoted key"},
+      {"non_ascii_multi_line_string.toml", "non-ASCII character in a multi-line string"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);
@@ -122,6 +126,14 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       EXPECT_NE(what.find(c.problem), std::string::npos) << what;
     }
   }
+}
+
+// Non-ASCII text is refused only where the TOML parser cannot take it (see config.cpp).
+TEST(Config, NonAsciiTextInCommentsAndStringValuesIsRead) {
+  const RunConfig c = read_config(kConfig / "non_ascii.toml");
+  EXPECT_EQ(c.output.dir, kConfig / "r\xc3\xa9sultats/\xe6\xb0\xb4");
+  EXPECT_EQ(c.integrator.bias[0], 0.25);
+  EXPECT_EQ(c.integrator.bias[1], 0.75);
 }
 
 TEST(Config, MissingFileIsAnInputError) {

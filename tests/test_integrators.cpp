@@ -345,7 +345,7 @@ std::unique_ptr<TestSystem> spce_system() {
   auto s = std::make_unique<TestSystem>();
   s->system = read_topology(dir / "topol.top");
   const GroFrame frame = read_gro(dir / "conf.gro");
-  apply_structure(s->system, frame, dir / "conf.gro");
+  apply_structure(s->system, frame, dir / "conf.gro", dir / "topol.top");
   s->state.q = frame.x;
   s->state.v = frame.v.value();
   ForceFieldConfig ff;
