@@ -1,9 +1,14 @@
 // vimd: the command line. The wiring from a run config to the simulation loop is app/model.*,
 // shared with the Python module (app/python).
 #include <omp.h>
+#include <sys/stat.h>
 
 #include <CLI/CLI.hpp>
+#include <cerrno>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -11,6 +16,9 @@
 #include "app/model.hpp"
 #include "engine/errors.hpp"
 #include "engine/observers.hpp"
+#include "engine/start_state.hpp"
+#include "engine/stop.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "integrators/registry.hpp"
 
 namespace fs = std::filesystem;
@@ -18,22 +26,215 @@ using namespace vimd;
 
 namespace {
 
-int run_command(const fs::path& config_file, const std::string& out_override, long steps_override) {
+// The model of a run file, its input warnings printed to stderr.
+std::unique_ptr<Model> load_and_warn(const fs::path& config_file) {
   std::unique_ptr<Model> m = load_model(config_file);
+  for (const auto& warning : m->input.warnings) std::fprintf(stderr, "vimd: warning: %s\n", warning.c_str());
+  return m;
+}
+
+// The pair kernels' SIMD target and width, e.g. "AVX2 (4 doubles per vector)".
+std::string simd_description() {
+  return simd::target_name() + " (" + std::to_string(simd::lanes()) + " doubles per vector)";
+}
+
+// FNV-1a over the bytes of the system's interaction parameters: any change to the topology shows.
+class Fingerprint {
+ public:
+  template <class T>
+  void add(const T& x) {
+    const auto* p = reinterpret_cast<const unsigned char*>(&x);
+    for (std::size_t k = 0; k < sizeof x; ++k) hash_ = (hash_ ^ p[k]) * 1099511628211ull;
+  }
+  void add_all(const Eigen::MatrixXd& m) {
+    for (Eigen::Index k = 0; k < m.size(); ++k) add(m.data()[k]);
+  }
+  std::string text() const {
+    char buf[20];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash_));
+    return buf;
+  }
+
+ private:
+  std::uint64_t hash_ = 14695981039346656037ull;
+};
+
+// The shortest of %.15g / %.17g that reads back as x: exact, and 0.0005 rather than 0.00050000000000000001.
+std::string text(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.15g", x);
+  if (std::strtod(buf, nullptr) != x) std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+// What a continued run must share with the stopped one for its outputs to be the uninterrupted run's.
+RunIdentity run_identity(const System& s, const RunConfig& c, long summary_every) {
+  Fingerprint topology;
+  topology.add_all(s.mass);
+  topology.add_all(s.charge);
+  topology.add_all(s.c6);
+  topology.add_all(s.c12);
+  for (int t : s.type) topology.add(t);
+  for (const Constraint& x : s.constraints) topology.add(x.i), topology.add(x.j), topology.add(x.length);
+  for (const Bond& x : s.bonds) topology.add(x.i), topology.add(x.j), topology.add(x.length), topology.add(x.k);
+  for (const Angle& x : s.angles)
+    topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.theta0), topology.add(x.force_constant);
+  Fingerprint tableau;
+  if (c.integrator.tableau) {
+    for (const auto& row : c.integrator.tableau->a)
+      for (double x : row) tableau.add(x);
+    for (double x : c.integrator.tableau->b) tableau.add(x);
+    for (double x : c.integrator.tableau->c) tableau.add(x);
+  }
+  const IntegratorConfig& i = c.integrator;
+  const ForceFieldConfig& f = c.forcefield;
+  return {{"atoms", std::to_string(s.n_atoms())},
+          {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints)", topology.text()},
+          {"box", text(s.box.length[0]) + " " + text(s.box.length[1]) + " " + text(s.box.length[2])},
+          {"[integrator] type", i.type},
+          {"dt", text(i.dt)},
+          {"constraint_tolerance", text(i.constraint_tolerance)},
+          {"max_iterations", std::to_string(i.max_iterations)},
+          {"method", i.method},
+          {"method_minus", i.method_minus.value_or("(same)")},
+          {"bias", text(i.bias[0]) + " " + text(i.bias[1])},
+          {"projection", i.projection},
+          {"solver_tolerance", i.solver_tolerance ? text(*i.solver_tolerance) : "(default)"},
+          {"acceleration", i.acceleration},
+          {"tableau", tableau.text()},
+          {"thermostat", i.thermostat},
+          {"temperature", i.temperature ? text(*i.temperature) : "(none)"},
+          {"tau_t", text(i.tau_t)},
+          {"seed", std::to_string(i.seed)},
+          {"emtol", text(i.emtol)},
+          {"emstep", text(i.emstep)},
+          {"cutoff", text(f.cutoff)},
+          {"vdw_modifier", f.vdw_modifier},
+          {"vdw_switch", text(f.vdw_switch)},
+          {"coulomb", f.coulomb},
+          {"epsilon_r", text(f.epsilon_r)},
+          {"epsilon_rf", text(f.epsilon_rf)},
+          {"neighbor_skin", text(f.neighbor_skin)},
+          {"trajectory_every", std::to_string(c.output.trajectory_every)},
+          {"energy_every", std::to_string(c.output.energy_every)},
+          {"summary sampling (steps)", std::to_string(summary_every)}};
+}
+
+// Everything a run may leave in its directory.
+constexpr const char* kRunFiles[] = {"energy.xvg", "energy.csv", "traj.trr", "confout.gro", "summary.json",
+                                     "state.cpt",  "last_good.gro"};
+
+// A directory to write a new run into: creatable, writable, and not holding a finished or stopped
+// run unless `overwrite`. Leftovers of a failed run (not resumable) are removed so they cannot pass
+// for this run's output.
+void prepare_output_dir(const fs::path& dir, bool overwrite) {
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error || !fs::is_directory(dir)) {
+    struct stat st;
+    std::string reason = error ? error.message() : "it exists and is not a directory";
+    if (::stat(dir.c_str(), &st) != 0 && errno == ENOTDIR)  // e.g. a symbolic link into a regular file
+      reason = "part of its path is not a directory";
+    else if (::stat(dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+      reason = "it exists and is not a directory";
+    throw InputError(dir.string(), 0, "cannot create the output directory: " + reason);
+  }
+  // A byte written and flushed: fails on a read-only or full file system before any step is spent.
+  const fs::path probe = dir / ".vimd-write-test";
+  std::FILE* f = std::fopen(probe.c_str(), "w");
+  const bool written = f && std::fputs("vimd\n", f) >= 0 && std::fflush(f) == 0;
+  const int write_errno = errno;
+  if (f) std::fclose(f);
+  fs::remove(probe);
+  if (!written)
+    throw InputError(dir.string(), 0, std::string("cannot write in the output directory: ") + std::strerror(write_errno));
+  if (!overwrite) {
+    if (fs::exists(dir / "summary.json"))
+      throw InputError(dir.string(), 0,
+                       "already holds a finished run (summary.json); refusing to overwrite it: choose another output "
+                       "directory, or pass --overwrite");
+    if (fs::exists(dir / "state.cpt"))
+      throw InputError(dir.string(), 0,
+                       "holds a stopped run (state.cpt): continue it with --continue " + dir.string() +
+                           ", or pass --overwrite to start afresh");
+  }
+  for (const char* name : kRunFiles) {
+    fs::remove(dir / name);
+    fs::remove(dir / (std::string(name) + ".partial"));
+  }
+  fs::remove(dir / "state.cpt.new");
+}
+
+struct RunOptions {
+  std::string out, continue_dir;
+  long steps = -1;
+  bool overwrite = false;
+};
+
+// The shell command that continues a stopped run.
+std::string continue_command(const fs::path& config_file, const fs::path& dir, long steps_override) {
+  std::string command = "vimd run " + fs::absolute(config_file).string() + " --continue " + fs::absolute(dir).string();
+  if (steps_override >= 0) command += " --steps " + std::to_string(steps_override);
+  return command;
+}
+
+// The output directory of the run under way, for the message when it fails.
+fs::path run_dir;
+
+int run_command(const fs::path& config_file, const RunOptions& options) {
+  std::unique_ptr<Model> m = load_and_warn(config_file);
   RunConfig& config = m->input.config;
-  if (steps_override >= 0) config.integrator.steps = steps_override;
-  const fs::path dir = out_override.empty() ? config.output.dir : fs::path(out_override);
+  if (options.steps >= 0) config.integrator.steps = options.steps;
+  const bool continuing = !options.continue_dir.empty();
+  if (continuing && !options.out.empty() && fs::path(options.out) != fs::path(options.continue_dir))
+    throw InputError("--continue", 0, "--out " + options.out + " and --continue " + options.continue_dir +
+                                          " name different directories (a run continues where it stopped)");
+  const fs::path dir = continuing ? fs::path(options.continue_dir)
+                                  : options.out.empty() ? config.output.dir : fs::path(options.out);
+  const System& system = m->input.system;
+  State& state = m->input.state;
   Run run(*m);
-  add_output_observers(run, config, dir);
-  run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
 
   const long steps = config.integrator.steps;
-  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, output in %s\n",
-              config.file.string().c_str(), m->input.system.n_atoms(), run.integrator->name().c_str(),
-              config.integrator.dt, steps, omp_get_max_threads(), dir.string().c_str());
+  const fs::path checkpoint_file = dir / "state.cpt";
+  const RunIdentity identity = run_identity(system, config, summary_every(config));
+  Checkpoint checkpoint;
+  if (continuing) {
+    if (fs::exists(dir / "summary.json"))
+      throw InputError(dir.string(), 0, "holds a finished run (summary.json): there is nothing to continue");
+    checkpoint = read_checkpoint(checkpoint_file);
+    check_identity(checkpoint_file, checkpoint.identity, identity);
+    if (checkpoint.state.step >= checkpoint.first_step + steps)
+      throw InputError(config.file.string(), 0,
+                       "the run in " + dir.string() + " stopped at step " + std::to_string(checkpoint.state.step) +
+                           ", which is not before the configured " + std::to_string(steps) + " steps");
+  } else {
+    prepare_output_dir(dir, options.overwrite);
+  }
+
+  add_output_observers(run, config, dir, platform_facts());
+  run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
+  run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
+
+  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, SIMD %s, output in %s\n",
+              config.file.string().c_str(), system.n_atoms(), run.integrator->name().c_str(), config.integrator.dt,
+              steps, omp_get_max_threads(), simd_description().c_str(), dir.string().c_str());
+  if (continuing)
+    std::printf("vimd run: continuing from step %ld (%s)\n", checkpoint.state.step, checkpoint_file.string().c_str());
   std::fflush(stdout);
-  run.simulation->run(m->input.state, steps);
-  return 0;
+  install_stop_handlers();
+  run_dir = dir;
+  const RunTotals totals = continuing ? run.simulation->resume(checkpoint, checkpoint.first_step + steps, state)
+                                      : run.simulation->run(state, steps);
+  if (totals.stop_signal == 0) return 0;
+  const char* name = totals.stop_signal == SIGTERM ? "SIGTERM" : totals.stop_signal == SIGINT ? "SIGINT" : "a signal";
+  std::fprintf(stderr,
+               "vimd: stopped by %s at step %ld of %ld; the outputs in %s are kept (.partial) with a checkpoint "
+               "(state.cpt).\nvimd: continue with: %s\n",
+               name, state.step, checkpoint.first_step + steps, dir.string().c_str(),
+               continue_command(config.file, dir, options.steps).c_str());
+  std::fflush(stderr);
+  return 128 + totals.stop_signal;
 }
 
 std::string json_number(double x) {
@@ -43,15 +244,15 @@ std::string json_number(double x) {
 }
 
 int energy_command(const fs::path& config_file, bool json) {
-  std::unique_ptr<Model> m = load_model(config_file);
+  std::unique_ptr<Model> m = load_and_warn(config_file);
   Forces forces;
   m->force_field->compute(m->input.state.q, forces);
   const auto& names = m->force_field->energy_names();
   if (json) {
     std::printf("{");
     for (std::size_t k = 0; k < names.size(); ++k)
-      std::printf("\"%s\": %s, ", names[k].c_str(), json_number(forces.terms[k]).c_str());
-    std::printf("\"potential\": %s}\n", json_number(forces.potential).c_str());
+      std::printf("\"%s\": %s, ", names[k].c_str(), text(forces.terms[k]).c_str());
+    std::printf("\"potential\": %s}\n", text(forces.potential).c_str());
   } else {
     for (std::size_t k = 0; k < names.size(); ++k) std::printf("%-10s %20.10f kJ/mol\n", names[k].c_str(), forces.terms[k]);
     std::printf("%-10s %20.10f kJ/mol\n", "potential", forces.potential);
@@ -60,7 +261,7 @@ int energy_command(const fs::path& config_file, bool json) {
 }
 
 int check_command(const fs::path& config_file) {
-  std::unique_ptr<Model> model = load_model(config_file);
+  std::unique_ptr<Model> model = load_and_warn(config_file);
   const Model& m = *model;
   const RunConfig& c = m.input.config;
   const System& s = m.input.system;
@@ -85,7 +286,18 @@ int check_command(const fs::path& config_file) {
               s.bonds.size(), s.angles.size(), s.constraints.size(), m.constraints.clusters().size(), largest_cluster,
               excluded_pairs / 2);
   std::printf("dof         %d\n", s.degrees_of_freedom());
-  std::printf("velocities  %s\n", m.input.velocities_generated ? "generated from [integrator] temperature" : "from the structure file");
+  const bool has_velocities = m.input.state.v.cols() == s.n_atoms();
+  std::printf("velocities  %s\n", m.input.velocities_generated ? "generated from [integrator] temperature"
+                                   : has_velocities ? "from the structure file"
+                                                    : "none in the structure file (a run needs [integrator] temperature)");
+  Problem problem{s, *m.force_field, m.constraints, m.inverse_mass};
+  State start = m.input.state;
+  const StartReport moved = constrain_start(problem, start);
+  std::printf("start       %s;\n            here it moves positions by up to %.3g nm", start_state_description(),
+              moved.position_change);
+  if (has_velocities && !m.input.velocities_generated)
+    std::printf(", velocities by up to %.3g nm/ps", moved.velocity_change);
+  std::printf("\n");
   std::printf("forcefield  cutoff %g nm, vdw %s (switch %g nm), coulomb %s (epsilon_rf %g), skin %g nm; terms:",
               c.forcefield.cutoff, c.forcefield.vdw_modifier.c_str(), c.forcefield.vdw_switch, c.forcefield.coulomb.c_str(),
               c.forcefield.epsilon_rf, c.forcefield.neighbor_skin);
@@ -95,7 +307,18 @@ int check_command(const fs::path& config_file) {
               c.integrator.steps, c.integrator.steps * c.integrator.dt);
   std::printf("output      %s (trajectory every %ld, energies every %ld steps)\n", c.output.dir.string().c_str(),
               c.output.trajectory_every, c.output.energy_every);
+  std::string targets;
+  for (const auto& t : simd::available_targets()) targets += (targets.empty() ? "" : ", ") + t;
+  std::printf("platform    SIMD %s, chosen at run time from %s; %d OpenMP threads\n", simd_description().c_str(),
+              targets.c_str(), omp_get_max_threads());
   return 0;
+}
+
+// "vimd: KIND MESSAGE", always ending its line (the shell prompt must not run on).
+void print_error(const char* kind, const std::string& message) {
+  const bool ends_line = !message.empty() && message.back() == '\n';
+  std::fprintf(stderr, "vimd: %s%s%s", kind, message.c_str(), ends_line ? "" : "\n");
+  std::fflush(stderr);
 }
 
 }  // namespace
@@ -103,16 +326,26 @@ int check_command(const fs::path& config_file) {
 int main(int argc, char** argv) {
   CLI::App app{"vimd: molecular dynamics with RATTLE and variational integrators of any order"};
   app.require_subcommand(1);
+  // Options of the program, accepted before or after the subcommand (`vimd run X.toml --threads 2`).
+  app.fallthrough();
   int threads = 0;
-  app.add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)");
+  app.add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(CLI::PositiveNumber);
+  std::string simd_target;
+  app.add_option("--simd", simd_target,
+                 "SIMD target of the pair kernels, e.g. AVX2 (default: the best this CPU runs; `vimd check` lists them)");
 
-  std::string config, out;
-  long steps = -1;
+  std::string config;
+  RunOptions run_options;
   bool json = false;
   auto* run = app.add_subcommand("run", "run the simulation described by a TOML file");
   run->add_option("config", config, "run parameters (TOML)")->required();
-  run->add_option("--out", out, "output directory (default: [output] dir of the config)");
-  run->add_option("--steps", steps, "number of steps (overrides [integrator] steps)")->check(CLI::NonNegativeNumber);
+  run->add_option("--out", run_options.out, "output directory (default: [output] dir of the config)");
+  run->add_option("--steps", run_options.steps, "number of steps (overrides [integrator] steps)")
+      ->check(CLI::NonNegativeNumber);
+  run->add_option("--continue", run_options.continue_dir,
+                  "continue the stopped run in this directory (from its state.cpt) up to the configured steps");
+  run->add_flag("--overwrite", run_options.overwrite, "replace a finished or stopped run in the output directory");
   auto* energy = app.add_subcommand("energy", "single-point energy terms of the structure, kJ/mol");
   energy->add_option("config", config, "run parameters (TOML)")->required();
   energy->add_flag("--json", json, "print as JSON");
@@ -120,20 +353,28 @@ int main(int argc, char** argv) {
   check->add_option("config", config, "run parameters (TOML)")->required();
   CLI11_PARSE(app, argc, argv);
   if (threads > 0) omp_set_num_threads(threads);
+  // Past a file-size limit, writes should fail with EFBIG (reported as an error), not kill vimd.
+  std::signal(SIGXFSZ, SIG_IGN);
 
   try {
-    if (run->parsed()) return run_command(config, out, steps);
+    if (!simd_target.empty()) simd::use_target(simd_target);
+    if (run->parsed()) return run_command(config, run_options);
     if (energy->parsed()) return energy_command(config, json);
     return check_command(config);
   } catch (const InputError& e) {
-    std::fprintf(stderr, "vimd: input error: %s\n", e.what());
+    print_error("input error: ", e.what());
     return 2;
   } catch (const ConvergenceError& e) {
-    std::fprintf(stderr, "\nvimd: %s\nvimd: the run stopped; files ending in .partial hold its output up to that point\n",
-                 e.what());
+    print_error("", e.what());
+    std::string where = "the run stopped";
+    if (!run_dir.empty()) {
+      where += "; the files ending in .partial in " + run_dir.string() + " hold its output up to its last good step";
+      if (fs::exists(run_dir / "last_good.gro")) where += ", " + (run_dir / "last_good.gro").string() + " that step's frame";
+    }
+    print_error("", where);
     return 3;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "vimd: error: %s\n", e.what());
+    print_error("error: ", e.what());
     return 1;
   }
 }

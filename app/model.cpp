@@ -1,8 +1,12 @@
 #include "app/model.hpp"
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cstdio>
 
 #include "engine/observers.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
@@ -22,6 +26,7 @@ Run::Run(Model& m)
       problem{m.input.system, *m.force_field, m.constraints, m.inverse_mass},
       dt(m.input.config.integrator.type == "minimize" ? 1.0 : m.input.config.integrator.dt),
       simulation(std::make_unique<Simulation>(problem, *integrator, dt)) {
+  require_velocities(m.input);
   if (m.input.velocities_generated) {
     // Generated velocities: remove the constraint components before setting the temperature.
     State& state = m.input.state;
@@ -32,17 +37,21 @@ Run::Run(Model& m)
 
 void Run::restart() { simulation = std::make_unique<Simulation>(problem, *integrator, dt); }
 
-void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir) {
-  std::filesystem::create_directories(dir);
-  // Outputs of an earlier run in the same place must not pass for this run's.
-  for (const char* name : {"energy.xvg", "energy.csv", "traj.trr", "confout.gro", "summary.json"}) {
-    std::filesystem::remove(dir / name);
-    std::filesystem::remove(dir / (std::string(name) + ".partial"));
-  }
-  const long steps = config.integrator.steps;
+std::vector<std::pair<std::string, std::string>> platform_facts() {
+  return {{"simd_target", simd::target_name()},
+          {"simd_lanes", std::to_string(simd::lanes())},
+          {"threads", std::to_string(omp_get_max_threads())}};
+}
+
+long summary_every(const RunConfig& config) {
   const long energy_every = config.output.energy_every;
   // The summary needs a series even when no energy file is written.
-  const long summary_every = energy_every > 0 ? energy_every : std::max(1L, steps / 1000);
+  return energy_every > 0 ? energy_every : std::max(1L, config.integrator.steps / 1000);
+}
+
+void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir,
+                          std::vector<std::pair<std::string, std::string>> platform) {
+  const long energy_every = config.output.energy_every;
   Simulation& simulation = *run.simulation;
   if (energy_every > 0) simulation.add_observer(std::make_unique<EnergyWriter>(dir, energy_every));
   if (config.output.trajectory_every > 0)
@@ -52,7 +61,8 @@ void add_output_observers(Run& run, const RunConfig& config, const std::filesyst
   if (minimize)
     simulation.add_observer(std::make_unique<MinimizationReporter>(dir, config.integrator.emtol, stdout));
   else
-    simulation.add_observer(std::make_unique<SummaryReporter>(dir, summary_every, stdout));
+    simulation.add_observer(
+        std::make_unique<SummaryReporter>(dir, summary_every(config), stdout, std::move(platform)));
 }
 
 }  // namespace vimd

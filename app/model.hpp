@@ -5,6 +5,9 @@
 // terms and integrators together.
 #include <filesystem>
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "engine/constraints.hpp"
 #include "engine/input.hpp"
@@ -19,11 +22,13 @@ struct Model {
   Eigen::VectorXd inverse_mass;
 };
 
-// Reads config, topology and structure and builds the force field and constraints.
+// Reads config, topology and structure and builds the force field and constraints. The input's
+// warnings are left in input.warnings for the caller to show.
 std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, const ConfigOverrides& overrides = {});
 
-// The integrator and the loop for a model, which must outlive it (they refer into it). Velocities
-// generated from the temperature get their constraint components removed and are rescaled to it.
+// The integrator and the loop for a model, which must outlive it (they refer into it). InputError
+// when the input has no velocities (require_velocities). Velocities generated from the temperature
+// get their constraint components removed and are rescaled to it.
 struct Run {
   explicit Run(Model& model);
   // A fresh loop (without observers) for a state changed from outside: its first run init()s the
@@ -35,8 +40,15 @@ struct Run {
   std::unique_ptr<Simulation> simulation;
 };
 
-// The files of a run in dir (removing those of an earlier run there): energies, trajectory, final
-// structure, and the end-of-run summary (a minimisation's own for type = "minimize").
-void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir);
+// Facts about where a run runs, for its summary: the pair kernels' SIMD target and width, threads.
+std::vector<std::pair<std::string, std::string>> platform_facts();
+
+// Steps between the samples of the end-of-run summary: the energy output's, else about 1000 in all.
+long summary_every(const RunConfig& config);
+
+// The files of a run in dir, which must exist: energies, trajectory, final structure, and the
+// end-of-run summary (a minimisation's own for type = "minimize") naming `platform`.
+void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir,
+                          std::vector<std::pair<std::string, std::string>> platform = {});
 
 }  // namespace vimd

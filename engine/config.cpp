@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -24,7 +27,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
        {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
       {"integrator.tableau", {"a", "b", "c", "order"}},
-      {"output", {"dir", "trajectory_every", "energy_every"}},
+      {"output", {"dir", "trajectory_every", "energy_every", "checkpoint_every"}},
   };
   return tables;
 }
@@ -89,9 +92,13 @@ class ConfigReader {
   explicit ConfigReader(const fs::path& file) : file_(file), dir_(file.parent_path()) {}
 
   RunConfig read(const ConfigOverrides& overrides) {
+    std::ifstream in(file_, std::ios::binary);
+    const std::string text{std::istreambuf_iterator<char>(in), {}};
+    if (!in) throw InputError(file_.string(), 0, "cannot read config file");
+    check_characters(text);
     toml::table root;
     try {
-      root = toml::parse_file(file_.string());
+      root = toml::parse(text, file_.string());
     } catch (const toml::parse_error& e) {
       throw InputError(file_.string(), static_cast<int>(e.source().begin.line),
                        "TOML syntax error: " + std::string(e.description()));
@@ -115,6 +122,82 @@ class ConfigReader {
   }
 
  private:
+  // Checks the raw text before the parser sees it: TOML allows no raw control characters but tab
+  // and line breaks (a binary or corrupted file). Non-ASCII text is refused outside comments and
+  // single-line string values: the TOML parser (toml++ 3.3 as Debian ships it) reaches
+  // undefined behaviour on some non-ASCII characters where it tests for whitespace, i.e. between
+  // tokens, in keys and in multi-line strings (upstream marzer/tomlplusplus#190, #295); a run file
+  // needs them nowhere else, and TOML allows them nowhere else but in quoted keys.
+  void check_characters(const std::string& text) const {
+    int line = 1;
+    bool value = false;               // after '=' of a key/value pair
+    bool string_value = false;        // the open string starts a value (else it is a key or garbage)
+    char last = '\n';                 // the last character outside strings, comments and blanks
+    std::vector<char> open;           // enclosing '[' arrays and '{' inline tables of a value
+    char quote = 0;                   // the open string's delimiter, 0 outside strings
+    bool multi_line = false, comment = false;
+    const auto refuse = [&](const std::string& problem) { throw InputError(file_.string(), line, problem); };
+    for (std::size_t k = 0; k < text.size(); ++k) {
+      const char c = text[k];
+      const auto byte = static_cast<unsigned char>(c);
+      if ((byte < 0x20 && c != '\t' && c != '\n' && c != '\r') || byte == 0x7f) {
+        char code[8];
+        std::snprintf(code, sizeof code, "0x%02X", byte);
+        refuse(std::string("control character ") + code +
+               " in the file (TOML allows none but tab and line breaks; binary or corrupted file?)");
+      }
+      if (c == '\n') {
+        ++line;
+        comment = false;
+        if (quote && !multi_line) quote = 0;  // an unterminated string: the parser reports it
+        if (!quote && open.empty()) value = false, last = '\n';
+        continue;
+      }
+      if (comment) continue;
+      if (quote) {
+        if (byte >= 0x80 && (multi_line || !string_value))
+          refuse(std::string("non-ASCII character in a ") +
+                 (string_value ? "multi-line string" : "quoted key or misplaced string") +
+                 ": a run file takes non-ASCII text only in comments and single-line string values");
+        if (quote == '"' && c == '\\') {
+          if (k + 1 < text.size() && text[k + 1] != '\n') ++k;  // the escaped character
+        } else if (c == quote && (!multi_line || text.compare(k, 3, std::string(3, quote)) == 0)) {
+          k += multi_line ? 2 : 0;
+          last = quote;
+          quote = 0;
+        }
+        continue;
+      }
+      if (byte >= 0x80)
+        refuse("non-ASCII character outside a string or comment (TOML keys, numbers and booleans are ASCII)");
+      if (c != ' ' && c != '\t' && c != '\r' && c != '#' && c != '"' && c != '\'') last = c;
+      switch (c) {
+        case '#': comment = true; break;
+        case '"':
+        case '\'':
+          // As the parser sees it: a value string only right after '=', or '[' / ',' in an array.
+          string_value = value && (last == '=' || last == '[' || last == ',');
+          quote = c;
+          multi_line = text.compare(k, 3, std::string(3, c)) == 0;
+          k += multi_line ? 2 : 0;
+          break;
+        case '=': value = true; break;
+        case '[': if (value) open.push_back('['); break;
+        case '{':
+          open.push_back('{');
+          value = false;
+          break;
+        case ',': value = open.empty() || open.back() == '['; break;
+        case ']':
+        case '}':
+          if (!open.empty()) open.pop_back();
+          value = true;
+          break;
+        default: break;
+      }
+    }
+  }
+
   // Nodes without a source were put there by apply_override.
   [[noreturn]] void fail(const toml::key& key, const std::string& problem) const {
     if (!key.source().path) throw InputError(kOverrides, 0, problem);
@@ -423,6 +506,11 @@ class ConfigReader {
     if (const auto* n = t.get("trajectory_every")) {
       out.trajectory_every = integer(*n, "trajectory_every");
       require(out.trajectory_every >= 0, *n, "trajectory_every must not be negative (0 disables the trajectory)");
+    }
+    if (const auto* n = t.get("checkpoint_every")) {
+      out.checkpoint_every = integer(*n, "checkpoint_every");
+      require(out.checkpoint_every >= 0, *n,
+              "checkpoint_every must not be negative (0: every 15 minutes of wall time and at the end)");
     }
     if (const auto* n = t.get("energy_every")) {
       out.energy_every = integer(*n, "energy_every");

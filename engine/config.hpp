@@ -59,6 +59,7 @@ struct OutputConfig {
   std::filesystem::path dir = "out";
   long trajectory_every = 100;  // steps; 0 disables
   long energy_every = 10;       // steps; 0 disables
+  long checkpoint_every = 0;    // steps; 0: every 15 minutes of wall time (and always at the end)
 };
 
 struct RunConfig {

@@ -36,6 +36,11 @@ class ConvergenceError : public std::runtime_error {
   int iterations() const { return iterations_; }
   double residual() const { return residual_; }
 
+ protected:
+  // A run that cannot go on for another reason than a solver (see BlowUpError): the message as is.
+  ConvergenceError(const std::string& message, long step)
+      : std::runtime_error(message), step_(step), iterations_(0), residual_(0) {}
+
  private:
   static std::string format_residual(double r) {
     char buf[32];

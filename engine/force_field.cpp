@@ -34,10 +34,34 @@ void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
   ++hessian_evaluations_;
 }
 
+void ForceField::fix_pair_set(const Coords* q) {
+  for (auto& t : terms_) t->fix_pair_set(q);
+}
+
 long ForceField::neighbor_rebuilds() const {
   long n = 0;
   for (const auto& t : terms_) n += t->rebuilds();
   return n;
+}
+
+Carried ForceField::save() const {
+  Carried out;
+  for (std::size_t k = 0; k < terms_.size(); ++k) {
+    Carried term;
+    terms_[k]->save(term);
+    for (auto& [name, values] : term.items) out.items[std::to_string(k) + "/" + name] = std::move(values);
+  }
+  return out;
+}
+
+void ForceField::restore(const Carried& in) {
+  for (std::size_t k = 0; k < terms_.size(); ++k) {
+    const std::string prefix = std::to_string(k) + "/";
+    Carried term;
+    for (const auto& [name, values] : in.items)
+      if (name.starts_with(prefix)) term.items[name.substr(prefix.size())] = values;
+    terms_[k]->restore(term);
+  }
 }
 
 }  // namespace vimd

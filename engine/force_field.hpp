@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/carried.hpp"
 #include "engine/types.hpp"
 
 namespace vimd {
@@ -28,7 +29,16 @@ class ForceTerm {
   // Terms with neighbour lists keep them valid for q here (rebuilding when needed); the
   // ForceField calls this before every evaluation, so no pair inside the cut-off is missed.
   virtual void prepare(const Coords& /*q*/) {}
+  // Fixes which pairs interact to those inside the cut-off at *q, until called with nullptr: every
+  // evaluation in between includes exactly these pairs, wherever they move (each pair potential
+  // continued smoothly past the cut-off), and no others. A cut-off crossing then cannot make the
+  // energy jump between evaluations (see ForceField::fix_pair_set).
+  virtual void fix_pair_set(const Coords* /*q*/) {}
   virtual long rebuilds() const { return 0; }
+  // Checkpoints: what changes results at round-off besides q (the neighbour list's build
+  // positions: the list's order is the summation order), and rebuilding from it.
+  virtual void save(Carried& /*out*/) const {}
+  virtual void restore(const Carried& /*in*/) {}
 };
 
 class ForceField {
@@ -39,11 +49,19 @@ class ForceField {
   void compute(const Coords& q, Forces& out);
   // out = ∇²V(q) u
   void hessian_vector(const Coords& q, const Coords& u, Coords& out);
+  // Freezes the interacting pair set of every term at q (nullptr releases it). Between the two
+  // calls the potential is V_q̂(x) = Σ over the pairs inside the cut-off at q̂ of the pair
+  // potentials, each continued analytically beyond the cut-off: a smooth function of x, which the
+  // variational integrator uses as one step's potential so that its step equations are smooth.
+  void fix_pair_set(const Coords* q);
 
   // Work counters, for cost reports (force-evaluation equivalents).
   long force_evaluations() const { return force_evaluations_; }
   long hessian_evaluations() const { return hessian_evaluations_; }
   long neighbor_rebuilds() const;
+  // Every term's save()/restore(), entries prefixed with the term's index.
+  Carried save() const;
+  void restore(const Carried& in);
 
   const std::vector<std::unique_ptr<ForceTerm>>& terms() const { return terms_; }
 
@@ -53,6 +71,18 @@ class ForceField {
   std::vector<std::size_t> name_counts_;  // per term
   long force_evaluations_ = 0;
   long hessian_evaluations_ = 0;
+};
+
+// Fixes the pair set of `field` at q for the lifetime of the object (one variational step).
+class FixedPairSet {
+ public:
+  FixedPairSet(ForceField& field, const Coords& q) : field_(field) { field_.fix_pair_set(&q); }
+  ~FixedPairSet() { field_.fix_pair_set(nullptr); }
+  FixedPairSet(const FixedPairSet&) = delete;
+  FixedPairSet& operator=(const FixedPairSet&) = delete;
+
+ private:
+  ForceField& field_;
 };
 
 }  // namespace vimd

@@ -149,6 +149,9 @@ GroFrame read_gro(const std::filesystem::path& file) {
       velocities = true;
       frame.v.emplace(3, n);
     }
+    if (!velocities && has_more)
+      lines.fail("this atom line has velocities (or other text after z) but the first atom line (line 3) has none: "
+                 "give velocities on every atom line or on none");
     if (velocities) {
       if (line.size() < v_start + 3 * width) lines.fail("no velocities on this atom line, but the first atom line has them");
       frame.v->col(i) = read_triplet(line, v_start, width, "velocity", lines);
@@ -188,19 +191,31 @@ void write_gro(const std::filesystem::path& file, const std::string& title, cons
   std::filesystem::rename(partial, file);
 }
 
-void apply_structure(System& system, const GroFrame& frame, const std::filesystem::path& gro_file) {
+std::vector<std::string> apply_structure(System& system, const GroFrame& frame, const std::filesystem::path& gro_file,
+                                         const std::filesystem::path& top_file) {
   const int n = static_cast<int>(frame.x.cols());
   if (n != system.n_atoms())
     throw InputError(gro_file.string(), 2,
-                     "structure has " + std::to_string(n) + " atoms but the topology has " +
-                         std::to_string(system.n_atoms()));
-  for (int i = 0; i < n; ++i)
-    // .gro keeps only 5 characters of a name.
-    if (frame.atom_names[i] != system.atom_names[i].substr(0, 5))
-      throw InputError(gro_file.string(), i + 3,
-                       "atom " + std::to_string(i + 1) + " is named '" + frame.atom_names[i] +
-                           "' here but '" + system.atom_names[i] + "' in the topology");
+                     "structure has " + std::to_string(n) + " atoms but the topology has " + std::to_string(system.n_atoms()) +
+                         " (check the molecule counts in [ molecules ] of " + top_file.string() + ")");
   system.box = frame.box;
+  // As grompp: differing names are a warning, and the topology's names are the ones used.
+  constexpr int kListed = 20;
+  std::string listed;
+  int mismatches = 0, first_line = 0;
+  for (int i = 0; i < n; ++i) {
+    // .gro keeps only 5 characters of a name.
+    if (frame.atom_names[i] == system.atom_names[i].substr(0, 5)) continue;
+    if (++mismatches == 1) first_line = i + 3;
+    if (mismatches <= kListed)
+      listed += "\n  line " + std::to_string(i + 3) + ": atom " + std::to_string(i + 1) + " is '" + frame.atom_names[i] +
+                "' here, '" + system.atom_names[i] + "' in the topology";
+  }
+  if (mismatches == 0) return {};
+  if (mismatches > kListed) listed += "\n  (" + std::to_string(mismatches - kListed) + " more)";
+  return {gro_file.string() + ":" + std::to_string(first_line) + ": " + std::to_string(mismatches) +
+          " atom name(s) do not match the topology " + top_file.string() +
+          "; the topology's names are used (is the structure in the topology's atom order?)" + listed};
 }
 
 }  // namespace vimd

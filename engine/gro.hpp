@@ -29,8 +29,10 @@ GroFrame read_gro(const std::filesystem::path& file);
 void write_gro(const std::filesystem::path& file, const std::string& title, const System& system, const Coords& x,
                const Coords* v, const Box& box);
 
-// Takes the box from the structure and checks that it matches the topology atom by atom (count and
-// names, as grompp does); a mismatch is an InputError at the structure's offending line.
-void apply_structure(System& system, const GroFrame& frame, const std::filesystem::path& gro_file);
+// Takes the box from the structure and checks it against the topology atom by atom, as grompp
+// does: a different atom count is an InputError; different atom names return a warning (naming
+// the structure's lines) and the topology's names stay.
+std::vector<std::string> apply_structure(System& system, const GroFrame& frame, const std::filesystem::path& gro_file,
+                                         const std::filesystem::path& top_file);
 
 }  // namespace vimd

@@ -1,6 +1,13 @@
 #include "engine/input.hpp"
 
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <map>
+#include <numbers>
+#include <optional>
 #include <random>
+#include <set>
 
 #include "engine/errors.hpp"
 #include "engine/gro.hpp"
@@ -22,10 +29,139 @@ Coords maxwell_boltzmann_velocities(const System& system, double temperature, st
   return v;
 }
 
+void require_velocities(const RunInput& input) {
+  if (input.state.v.cols() == input.state.q.cols()) return;
+  throw InputError(input.config.file.string(), 0,
+                   input.config.structure.string() +
+                       " has no velocities: set [integrator] temperature to generate them (a run needs them)");
+}
+
 void scale_to_temperature(const System& system, double temperature, Coords& v) {
   const double kinetic = kinetic_energy(system.mass, v);
   const double target = 0.5 * system.degrees_of_freedom() * kBoltzmann * temperature;
   if (kinetic > 0) v *= std::sqrt(target / kinetic);
+}
+
+namespace {
+
+std::string format(const char* spec, double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, spec, value);
+  return buf;
+}
+
+std::string describe_atom(const System& s, int i) {
+  return std::to_string(i + 1) + " (" + std::to_string(s.residue_numbers[i]) + s.residue_names[i] + " " +
+         s.atom_names[i] + ")";
+}
+
+// GROMACS's rule: the pair-list range (cut-off plus buffer) must fit in half the box, so that no
+// pair is listed with two images of the same atom.
+void check_box(const RunConfig& c, const Box& box, int box_line) {
+  const double list_range = c.forcefield.cutoff + c.forcefield.neighbor_skin;
+  for (int k = 0; k < 3; ++k)
+    if (box.length[k] > 0 && box.length[k] < 2 * list_range)
+      throw InputError(c.structure.string(), box_line,
+                       "box length " + format("%g", box.length[k]) + " nm in " + "xyz"[k] +
+                           " is shorter than twice cutoff + neighbor_skin = 2 x (" + format("%g", c.forcefield.cutoff) +
+                           " + " + format("%g", c.forcefield.neighbor_skin) + ") = " + format("%g", 2 * list_range) +
+                           " nm set in " + c.file.string() + ": use a larger box or a smaller cutoff or neighbor_skin");
+}
+
+// Overlapping atoms make the first force evaluation meaningless (or infinite).
+void check_overlaps(const System& s, const Coords& x, const Box& box, const std::filesystem::path& gro) {
+  const auto overlap = find_overlap(x, box, 0.05);
+  if (!overlap) return;
+  const auto [i, j, distance, pairs] = *overlap;
+  throw InputError(gro.string(), j + 3,
+                   "atoms " + describe_atom(s, i) + " at line " + std::to_string(i + 3) + " and " + describe_atom(s, j) +
+                       " are " + format("%.4f", distance) +
+                       " nm apart, closer than 0.05 nm: overlapping atoms give huge forces from the first step" +
+                       (pairs > 1 ? " (" + std::to_string(pairs) + " such pairs in all)" : std::string()));
+}
+
+std::optional<std::string> net_charge_warning(const System& s, const RunConfig& c) {
+  const double q = s.charge.sum();
+  // grompp's threshold for its own note on a net charge.
+  if (c.forcefield.coulomb == "none" || std::abs(q) < 1e-4) return std::nullopt;
+  return c.topology.string() + ": the system has a net charge of " + format("%.6g", q) + " e (coulomb = \"" +
+         c.forcefield.coulomb + "\"): reaction-field assumes a neutral system (its medium beyond the cut-off is a " +
+         "neutral dielectric), so with a net charge the energy depends on the cut-off and epsilon_rf and is not " +
+         "comparable with other setups; add counter-ions unless this is intended";
+}
+
+// As grompp: a harmonic bond that is not also constrained oscillates with period 2π√(μ/k); fewer
+// than ten steps per period integrate it badly or not at all.
+std::optional<std::string> time_step_warning(const System& s, const RunConfig& c) {
+  std::set<std::pair<int, int>> constrained;
+  for (const Constraint& k : s.constraints) constrained.emplace(std::minmax(k.i, k.j));
+  const Bond* fastest = nullptr;
+  double shortest = INFINITY;
+  int too_fast = 0;
+  for (const Bond& b : s.bonds) {
+    if (b.k <= 0 || constrained.count(std::minmax(b.i, b.j))) continue;
+    const double reduced_mass = s.mass[b.i] * s.mass[b.j] / (s.mass[b.i] + s.mass[b.j]);
+    const double period = 2 * std::numbers::pi * std::sqrt(reduced_mass / b.k);  // ps
+    if (period >= 10 * c.integrator.dt) continue;
+    ++too_fast;
+    if (period < shortest) shortest = period, fastest = &b;
+  }
+  if (!fastest) return std::nullopt;
+  return c.topology.string() + ": the bond between atoms " + describe_atom(s, fastest->i) + " and " +
+         describe_atom(s, fastest->j) + " oscillates with a period of " + format("%.3g", shortest) +
+         " ps, less than 10 times dt = " + format("%g", c.integrator.dt) + " ps set in " + c.file.string() +
+         " (" + std::to_string(too_fast) + " unconstrained bond(s) affected): the integration will be inaccurate " +
+         "or unstable; constrain these bonds or use dt <= " + format("%.2g", shortest / 10) + " ps";
+}
+
+}  // namespace
+
+std::optional<Overlap> find_overlap(const Coords& x, const Box& box, double min_distance) {
+  // Cells at least min_distance wide: a close pair is always in the same or neighbouring cells.
+  std::array<long, 3> n_cells{};
+  for (int k = 0; k < 3; ++k)
+    n_cells[k] = box.length[k] > 0 ? std::max(1L, static_cast<long>(box.length[k] / min_distance)) : 0;
+  const auto cell_of = [&](const Vec3& r) {
+    std::array<long, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      if (n_cells[k] == 0) {
+        c[k] = static_cast<long>(std::floor(r[k] / min_distance));
+      } else {
+        const double wrapped = r[k] - box.length[k] * std::floor(r[k] / box.length[k]);
+        c[k] = std::min(n_cells[k] - 1, static_cast<long>(wrapped / box.length[k] * n_cells[k]));
+      }
+    }
+    return c;
+  };
+  const int n = static_cast<int>(x.cols());
+  std::map<std::array<long, 3>, std::vector<int>> cells;
+  for (int i = 0; i < n; ++i) cells[cell_of(x.col(i))].push_back(i);
+
+  std::optional<Overlap> found;
+  int pairs = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto home = cell_of(x.col(i));
+    std::set<std::array<long, 3>> visited;  // small periodic grids reach one cell by several shifts
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dz = -1; dz <= 1; ++dz) {
+          std::array<long, 3> c{home[0] + dx, home[1] + dy, home[2] + dz};
+          for (int k = 0; k < 3; ++k)
+            if (n_cells[k] > 0) c[k] = (c[k] + n_cells[k]) % n_cells[k];
+          if (!visited.insert(c).second) continue;
+          const auto it = cells.find(c);
+          if (it == cells.end()) continue;
+          for (int j : it->second) {
+            if (j <= i) continue;
+            const double d = box.minimum_image(x.col(i) - x.col(j)).norm();
+            if (d >= min_distance) continue;
+            ++pairs;
+            if (!found || std::pair(i, j) < std::pair(found->i, found->j)) found = Overlap{i, j, d, 0};
+          }
+        }
+  }
+  if (found) found->pairs = pairs;
+  return found;
 }
 
 RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOverrides& overrides) {
@@ -35,13 +171,11 @@ RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOv
   in.system = read_topology(c.topology);
   GroFrame frame = read_gro(c.structure);
 
-  apply_structure(in.system, frame, c.structure);
-  const Box& box = frame.box;
-  // Minimum-image pair interactions need the cut-off sphere to fit in half the box.
-  if (box.periodic() && 2 * c.forcefield.cutoff > box.length.minCoeff())
-    throw InputError(c.file.string(), 0,
-                     "cutoff (" + std::to_string(c.forcefield.cutoff) + " nm) exceeds half the smallest box length (" +
-                         std::to_string(box.length.minCoeff()) + " nm) of " + c.structure.string());
+  in.warnings = apply_structure(in.system, frame, c.structure, c.topology);
+  check_box(c, frame.box, static_cast<int>(frame.x.cols()) + 3);
+  check_overlaps(in.system, frame.x, frame.box, c.structure);
+  for (const auto& warning : {net_charge_warning(in.system, c), time_step_warning(in.system, c)})
+    if (warning) in.warnings.push_back(*warning);
 
   in.state.q = frame.x;
   if (frame.v) {
@@ -51,9 +185,6 @@ RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOv
     in.velocities_generated = true;
   } else if (c.integrator.type == "minimize") {
     in.state.v = Coords::Zero(3, in.system.n_atoms());  // a minimiser has no use for velocities
-  } else {
-    throw InputError(c.file.string(), 0,
-                     c.structure.string() + " has no velocities: set [integrator] temperature to generate them");
   }
   return in;
 }

@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/carried.hpp"
 #include "engine/constraints.hpp"
 #include "engine/force_field.hpp"
 #include "engine/state.hpp"
@@ -28,7 +29,8 @@ class Integrator {
  public:
   virtual ~Integrator() = default;
   virtual std::string name() const = 0;
-  // Called once before step 0 (constrain the start, compute forces, set up internal state).
+  // Called once before the first step, on a start the engine has already constrained
+  // (engine/start_state): computes forces and sets up internal state, never moves q or v.
   // Must leave state.f / potential / energy_terms consistent with state.q.
   virtual void init(Problem& problem, State& state) = 0;
   // Advances state by one step of dt; leaves forces and energies consistent with the new q.
@@ -40,6 +42,13 @@ class Integrator {
   virtual double thermostat_work() const { return 0; }
   // Extra per-step columns for the energy output (e.g. iterations, Noether momentum).
   virtual std::vector<std::string> diagnostic_names() const { return {}; }
+  // Checkpoints: what the integrator carries from step to step besides the State (nothing for a
+  // one-step method whose step depends on the State alone).
+  virtual Carried carried_state() const { return {}; }
+  // Continuing from a checkpoint: called after init(), with the State as it was checkpointed
+  // (forces included) and what carried_state() returned then; the next step() must then do
+  // exactly what it would have done in the uninterrupted run.
+  virtual void restore(Problem& /*problem*/, const State& /*state*/, const Carried& /*carried*/) {}
 };
 
 // ½ Σ m v²

@@ -10,7 +10,6 @@
 #include <stdexcept>
 
 #include "engine/errors.hpp"
-#include "engine/simd.hpp"
 
 namespace vimd {
 
@@ -21,6 +20,8 @@ constexpr int kCluster = NeighborList::kClusterSize;
 // (small systems are evaluated very often by the variational integrators).
 constexpr int kParallelAtoms = 4096;
 constexpr int kHalf = NeighborList::kHalfSize;
+// Clusters whose bounding boxes are tested together in the pair search.
+constexpr int kBoxBatch = 8;
 
 // The half list keeps an image of a cluster paired with itself only for one of ±shift.
 bool is_positive_image(const Eigen::Vector3i& n) {
@@ -212,9 +213,9 @@ void NeighborList::bin_atoms(const Coords& q) {
 }
 
 void NeighborList::compute_bounds() {
-  for (int k = 0; k < 3; ++k) {  // padded by one vector of empty boxes for the SIMD search
-    cluster_lo_[k].assign(n_clusters_ + kSimdWidth, INFINITY);
-    cluster_hi_[k].assign(n_clusters_ + kSimdWidth, -INFINITY);
+  for (int k = 0; k < 3; ++k) {  // padded by one batch of empty boxes for the search
+    cluster_lo_[k].assign(n_clusters_ + kBoxBatch, INFINITY);
+    cluster_hi_[k].assign(n_clusters_ + kBoxBatch, -INFINITY);
   }
   cluster_bounds_.resize(n_clusters_);
 #pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
@@ -242,14 +243,22 @@ void NeighborList::pair_masks(int i_cluster, int j_cluster, int shift_index, std
   const double* x = slot_wrapped_[0].data();
   const double* y = slot_wrapped_[1].data();
   const double* z = slot_wrapped_[2].data();
-  // Only pairs within cut-off + skin now can come inside the cut-off before the next build.
-  static_assert(kCluster == kSimdWidth, "a j-cluster is one SIMD vector");
-  const SimdDouble xj = simd_load(x + j_first) + shift[0], yj = simd_load(y + j_first) + shift[1],
-                   zj = simd_load(z + j_first) + shift[2];
+  // Only pairs within cut-off + skin now can come inside the cut-off before the next build. Plain
+  // loops over the 8 j atoms: the compiler vectorises them for the build's baseline target.
+  double xj[kCluster], yj[kCluster], zj[kCluster];
+  for (int j = 0; j < kCluster; ++j) {
+    xj[j] = x[j_first + j] + shift[0];
+    yj[j] = y[j_first + j] + shift[1];
+    zj[j] = z[j_first + j] + shift[2];
+  }
   std::uint64_t near = 0;  // bit (i * 8 + j) for the 8 x 8 atom pairs
   for (int i = 0; i < kCluster; ++i) {
-    const SimdDouble dx = x[i_first + i] - xj, dy = y[i_first + i] - yj, dz = z[i_first + i] - zj;
-    near |= static_cast<std::uint64_t>(simd_bits(dx * dx + dy * dy + dz * dz < range2)) << (i * kCluster);
+    unsigned row = 0;
+    for (int j = 0; j < kCluster; ++j) {
+      const double dx = x[i_first + i] - xj[j], dy = y[i_first + i] - yj[j], dz = z[i_first + i] - zj[j];
+      row |= static_cast<unsigned>(dx * dx + dy * dy + dz * dz < range2) << j;
+    }
+    near |= static_cast<std::uint64_t>(row) << (i * kCluster);
   }
   // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
   // its own image.
@@ -319,17 +328,20 @@ void NeighborList::search_pairs() {
             const int column = cx * n_columns_[1] + cy;
             const int column_end = column_cluster_start_[column + 1];
             if (column_end <= a_cluster) continue;
-            // Bounding-box distances of 8 clusters of the column at once.
-            for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kSimdWidth) {
-              SimdDouble d2{};
-              for (int k = 0; k < 3; ++k) {
-                const SimdDouble above = (simd_load(cluster_lo_[k].data() + b0) + shift[k]) - ba.hi[k];
-                const SimdDouble below = ba.lo[k] - (simd_load(cluster_hi_[k].data() + b0) + shift[k]);
-                const SimdDouble gap = positive_part(select(above > below, above, below));
-                d2 += gap * gap;
+            // Bounding-box distances of kBoxBatch clusters of the column at once.
+            for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kBoxBatch) {
+              unsigned candidates = 0;
+              for (int c = 0; c < kBoxBatch; ++c) {
+                double d2 = 0;
+                for (int k = 0; k < 3; ++k) {
+                  const double above = (cluster_lo_[k][b0 + c] + shift[k]) - ba.hi[k];
+                  const double below = ba.lo[k] - (cluster_hi_[k][b0 + c] + shift[k]);
+                  const double gap = std::max(std::max(above, below), 0.0);
+                  d2 += gap * gap;
+                }
+                candidates |= static_cast<unsigned>(d2 < range2) << c;
               }
-              unsigned candidates = simd_bits(d2 < range2);
-              if (column_end - b0 < kSimdWidth) candidates &= (1u << (column_end - b0)) - 1;
+              if (column_end - b0 < kBoxBatch) candidates &= (1u << (column_end - b0)) - 1;
               for (; candidates; candidates &= candidates - 1) {
                 const int b = b0 + __builtin_ctz(candidates);
                 // The half list keeps a cluster's own images for one of ±shift only.

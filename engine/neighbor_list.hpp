@@ -23,7 +23,9 @@ namespace vimd {
 
 class NeighborList {
  public:
-  static constexpr int kClusterSize = 8;  // j-cluster: one 8-wide SIMD vector of doubles
+  // j-cluster: 8 atoms, one AVX-512 vector of doubles, two AVX2 or four SSE vectors (the kernels
+  // take it in vectors of their target's width); 4 x 8 pair bits fit an entry's 32-bit mask.
+  static constexpr int kClusterSize = 8;
   static constexpr int kHalfSize = kClusterSize / 2;
 
   struct Entry {
@@ -49,6 +51,8 @@ class NeighborList {
   // Largest displacement of any atom since the last build, nm.
   double max_displacement(const Coords& q) const;
   long builds() const { return builds_; }
+  // Positions of the last build (empty before the first).
+  const Coords& built_at() const { return q_at_build_; }
 
   double cutoff() const { return cutoff_; }
   double skin() const { return skin_; }

@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -19,10 +21,15 @@ std::string number(double x) {
   return buf;
 }
 
-std::ofstream open_output(const std::filesystem::path& path) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path.string(), 0, "cannot open for writing");
+std::ofstream open_output(const std::filesystem::path& path, std::ios::openmode mode = std::ios::out) {
+  std::ofstream out(path, mode);
+  if (!out) throw InputError(path.string(), 0, std::string("cannot open for writing: ") + std::strerror(errno));
   return out;
+}
+
+// After a flush or close: a full disk or a file-size limit shows up here.
+void check_stream(const std::ostream& out, const std::filesystem::path& path) {
+  if (!out) throw std::runtime_error(path.string() + ": cannot write (disk full?): " + std::strerror(errno));
 }
 
 std::string duration_text(double seconds) {
@@ -45,6 +52,16 @@ PendingFile::PendingFile(std::filesystem::path final_path)
     : final_(std::move(final_path)), partial_(final_.string() + ".partial") {}
 
 void PendingFile::commit() const { std::filesystem::rename(partial_, final_); }
+
+void truncate_to_checkpoint(const std::filesystem::path& partial, double bytes) {
+  std::error_code error;
+  const auto size = std::filesystem::file_size(partial, error);
+  if (error || static_cast<double>(size) < bytes)
+    throw InputError(partial.string(), 0,
+                     error ? "missing: the stopped run's output cannot be continued"
+                           : "shorter than at the checkpoint: the stopped run's output cannot be continued");
+  std::filesystem::resize_file(partial, static_cast<std::uintmax_t>(bytes));
+}
 
 // ---------------------------------------------------------------- energies
 
@@ -69,14 +86,46 @@ void EnergyWriter::begin(const RunInfo& info) {
     csv_ << ',' << columns[k];
   }
   csv_ << '\n';
+  check_written();
 }
 
-void EnergyWriter::observe(const RunInfo&, const State&, const Sample& s) {
+void EnergyWriter::check_written() {
+  check_stream(xvg_, xvg_file_.partial_path());
+  check_stream(csv_, csv_file_.partial_path());
+}
+
+Carried EnergyWriter::checkpoint(const RunInfo&) {
+  xvg_.flush();
+  csv_.flush();
+  check_written();
+  Carried c;
+  c.put("xvg_bytes", static_cast<double>(std::filesystem::file_size(xvg_file_.partial_path())));
+  c.put("csv_bytes", static_cast<double>(std::filesystem::file_size(csv_file_.partial_path())));
+  return c;
+}
+
+void EnergyWriter::resume(const RunInfo&, const Carried& c) {
+  truncate_to_checkpoint(xvg_file_.partial_path(), c.number("xvg_bytes"));
+  truncate_to_checkpoint(csv_file_.partial_path(), c.number("csv_bytes"));
+  xvg_ = open_output(xvg_file_.partial_path(), std::ios::app);
+  csv_ = open_output(csv_file_.partial_path(), std::ios::app);
+}
+
+void EnergyWriter::stop(const RunInfo&) {
+  xvg_.close();
+  csv_.close();
+  check_written();
+}
+
+void EnergyWriter::observe(const RunInfo& info, const State&, const Sample& s) {
   std::vector<double> values = {s.time,      s.potential,   s.kinetic,       s.total,
                                  s.conserved, s.temperature, s.constraint_rms};
   values.insert(values.end(), s.energy_terms.begin(), s.energy_terms.end());
   for (int k = 0; k < 3; ++k) values.push_back(s.momentum[k]);
-  values.insert(values.end(), s.diagnostics.begin(), s.diagnostics.end());
+  if (s.diagnostics.empty())  // the start: no step has run yet, no NaN in the file
+    values.resize(values.size() + info.diagnostic_names.size(), 0.0);
+  else
+    values.insert(values.end(), s.diagnostics.begin(), s.diagnostics.end());
   for (std::size_t k = 0; k < values.size(); ++k) {
     const std::string text = number(values[k]);
     xvg_ << (k ? "  " : "") << text;
@@ -84,11 +133,13 @@ void EnergyWriter::observe(const RunInfo&, const State&, const Sample& s) {
   }
   xvg_ << '\n';
   csv_ << '\n';
+  check_written();
 }
 
 void EnergyWriter::finish(const RunInfo&, const State&, const RunTotals&) {
   xvg_.close();
   csv_.close();
+  check_written();
   xvg_file_.commit();
   csv_file_.commit();
 }
@@ -104,6 +155,19 @@ void TrajectoryWriter::begin(const RunInfo& info) {
   writer_ = std::make_unique<TrrWriter>(file_.partial_path(), info.problem.system.n_atoms());
 }
 
+Carried TrajectoryWriter::checkpoint(const RunInfo&) {
+  Carried c;  // every frame is flushed as it is written
+  c.put("trr_bytes", static_cast<double>(std::filesystem::file_size(file_.partial_path())));
+  return c;
+}
+
+void TrajectoryWriter::resume(const RunInfo& info, const Carried& c) {
+  truncate_to_checkpoint(file_.partial_path(), c.number("trr_bytes"));
+  writer_ = std::make_unique<TrrWriter>(file_.partial_path(), info.problem.system.n_atoms(), /*append=*/true);
+}
+
+void TrajectoryWriter::stop(const RunInfo&) { writer_.reset(); }
+
 void TrajectoryWriter::observe(const RunInfo& info, const State& state, const Sample&) {
   writer_->write(state.step, state.time, info.problem.system.box, &state.q, &state.v, &state.f);
 }
@@ -115,18 +179,29 @@ void TrajectoryWriter::finish(const RunInfo&, const State&, const RunTotals&) {
 
 void FinalStructureWriter::finish(const RunInfo& info, const State& state, const RunTotals&) {
   const System& system = info.problem.system;
-  write_gro(path_, system.title, system, state.q, velocities_ ? &state.v : nullptr, system.box);
+  write_gro(dir_ / "confout.gro", system.title, system, state.q, velocities_ ? &state.v : nullptr, system.box);
+}
+
+void FinalStructureWriter::fail(const RunInfo& info, const State& last_good) {
+  const System& system = info.problem.system;
+  if (last_good.q.cols() != system.n_atoms()) return;  // failed before the first step
+  write_gro(dir_ / "last_good.gro", system.title + " (last good frame, step " + std::to_string(last_good.step) + ")",
+            system, last_good.q, velocities_ ? &last_good.v : nullptr, system.box);
 }
 
 // ---------------------------------------------------------------- progress
 
 ProgressReporter::ProgressReporter(std::FILE* out) : out_(out), terminal_(isatty(fileno(out))) {}
 
+ProgressReporter::~ProgressReporter() {
+  if (line_open_) std::fputc('\n', out_);
+}
+
 void ProgressReporter::begin(const RunInfo&) { start_ = last_print_ = std::chrono::steady_clock::now(); }
 
 void ProgressReporter::observe(const RunInfo& info, const State& state, const Sample&) {
-  const long total = info.last_step - info.first_step;
-  const long done = state.step - info.first_step;
+  const long total = info.last_step - info.start_step;
+  const long done = state.step - info.start_step;
   if (total <= 0 || done == 0) return;
   const auto now = std::chrono::steady_clock::now();
   const double fraction = static_cast<double>(done) / total;
@@ -148,6 +223,7 @@ void ProgressReporter::observe(const RunInfo& info, const State& state, const Sa
     bar.resize(width, '.');
     std::fprintf(out_, "\r[%s] %3.0f%%  step %ld/%ld  %.2f ns/day  ETA %s ", bar.c_str(), 100 * fraction, done, total,
                  rate, duration_text(eta).c_str());
+    line_open_ = true;
   } else {
     std::fprintf(out_, "step %ld/%ld (%.0f%%)  %.2f ns/day  ETA %s\n", done, total, 100 * fraction, rate,
                  duration_text(eta).c_str());
@@ -156,7 +232,8 @@ void ProgressReporter::observe(const RunInfo& info, const State& state, const Sa
 }
 
 void ProgressReporter::finish(const RunInfo&, const State&, const RunTotals&) {
-  if (terminal_) std::fputc('\n', out_);
+  if (line_open_) std::fputc('\n', out_);
+  line_open_ = false;
 }
 
 // ---------------------------------------------------------------- summary
@@ -182,8 +259,9 @@ EnergyStatistics energy_statistics(const std::vector<double>& time, const std::v
   return s;
 }
 
-SummaryReporter::SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out)
-    : every_(every), dir_(dir), out_(out) {}
+SummaryReporter::SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out,
+                                 std::vector<std::pair<std::string, std::string>> platform)
+    : every_(every), dir_(dir), out_(out), platform_(std::move(platform)) {}
 
 void SummaryReporter::observe(const RunInfo& info, const State&, const Sample& s) {
   time_.push_back(s.time);
@@ -193,6 +271,25 @@ void SummaryReporter::observe(const RunInfo& info, const State&, const Sample& s
   diagnostics_.resize(info.diagnostic_names.size());
   for (std::size_t k = 0; k < s.diagnostics.size(); ++k)
     if (std::isfinite(s.diagnostics[k])) diagnostics_[k].push_back(s.diagnostics[k]);
+}
+
+Carried SummaryReporter::checkpoint(const RunInfo&) {
+  Carried c;
+  c.put("time", time_);
+  c.put("conserved", conserved_);
+  c.put("temperature", temperature_);
+  c.put("constraint_rms", constraint_rms_);
+  for (std::size_t k = 0; k < diagnostics_.size(); ++k) c.put("diagnostic_" + std::to_string(k), diagnostics_[k]);
+  return c;
+}
+
+void SummaryReporter::resume(const RunInfo& info, const Carried& c) {
+  time_ = c.values("time");
+  conserved_ = c.values("conserved");
+  temperature_ = c.values("temperature");
+  constraint_rms_ = c.values("constraint_rms");
+  diagnostics_.resize(info.diagnostic_names.size());
+  for (std::size_t k = 0; k < diagnostics_.size(); ++k) diagnostics_[k] = c.values("diagnostic_" + std::to_string(k));
 }
 
 void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals& totals) {
@@ -223,6 +320,11 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
                time_.size(), stats.rms_fluctuation, stats.detrended_fluctuation, mean(temperature_), max_constraint,
                totals.wall_seconds, 1e3 * totals.wall_seconds / steps, rate, totals.force_evaluations / steps,
                totals.hessian_evaluations / steps, totals.neighbor_rebuilds);
+  if (!platform_.empty()) {
+    std::fprintf(out_, "  platform         ");
+    for (const auto& [key, value] : platform_) std::fprintf(out_, " %s %s;", key.c_str(), value.c_str());
+    std::fprintf(out_, "\n");
+  }
   for (std::size_t k = 0; k < diagnostics_.size(); ++k)
     std::fprintf(out_, "  %-17s mean %.4g\n", info.diagnostic_names[k].c_str(), mean(diagnostics_[k]));
   std::fflush(out_);
@@ -245,9 +347,12 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
         << "  \"hessian_evaluations_per_step\": " << number(totals.hessian_evaluations / steps) << ",\n"
         << "  \"neighbor_rebuilds\": " << totals.neighbor_rebuilds << ",\n"
         << "  \"mean_iterations\": " << number(totals.solver_iterations / steps);
+    for (const auto& [key, value] : platform_) out << ",\n  \"" << key << "\": \"" << value << "\"";
     for (std::size_t k = 0; k < diagnostics_.size(); ++k)
       out << ",\n  \"mean_" << info.diagnostic_names[k] << "\": " << number(mean(diagnostics_[k]));
     out << "\n}\n";
+    out.close();
+    check_stream(out, json.partial_path());
   }
   json.commit();
 }

@@ -33,8 +33,13 @@ class EnergyWriter : public Observer {
   void begin(const RunInfo&) override;
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  Carried checkpoint(const RunInfo&) override;
+  void resume(const RunInfo&, const Carried&) override;
+  void stop(const RunInfo&) override;
+  void fail(const RunInfo& info, const State&) override { stop(info); }
 
  private:
+  void check_written();
   long every_;
   PendingFile xvg_file_, csv_file_;
   std::ofstream xvg_, csv_;
@@ -49,6 +54,9 @@ class TrajectoryWriter : public Observer {
   void begin(const RunInfo&) override;
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  Carried checkpoint(const RunInfo&) override;
+  void resume(const RunInfo&, const Carried&) override;
+  void stop(const RunInfo&) override;
 
  private:
   long every_;
@@ -56,19 +64,25 @@ class TrajectoryWriter : public Observer {
   std::unique_ptr<TrrWriter> writer_;
 };
 
-// confout.gro at the end of a successful run; without velocities when they mean nothing (a
-// minimisation), so a run from it generates them from its temperature.
+// Truncates a stopped run's partial output back to its size at the checkpoint (frames written
+// after it are written again); InputError if the file is missing or shorter.
+void truncate_to_checkpoint(const std::filesystem::path& partial, double bytes);
+
+// confout.gro at the end of a successful run; last_good.gro (the state before the failing step)
+// when a run fails. Both without velocities when they mean nothing (a minimisation), so a run from
+// them generates them from its temperature.
 class FinalStructureWriter : public Observer {
  public:
   explicit FinalStructureWriter(const std::filesystem::path& dir, bool velocities = true)
-      : path_(dir / "confout.gro"), velocities_(velocities) {}
+      : dir_(dir), velocities_(velocities) {}
   long every() const override { return 0; }
   bool needs_sample() const override { return false; }
   void observe(const RunInfo&, const State&, const Sample&) override {}
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  void fail(const RunInfo&, const State& last_good) override;
 
  private:
-  std::filesystem::path path_;
+  std::filesystem::path dir_;
   bool velocities_;
 };
 
@@ -76,6 +90,8 @@ class FinalStructureWriter : public Observer {
 class ProgressReporter : public Observer {
  public:
   explicit ProgressReporter(std::FILE* out);
+  // Ends an open bar line, so a message after a failed run starts on its own line.
+  ~ProgressReporter() override;
   long every() const override { return 1; }
   bool needs_sample() const override { return false; }
   void begin(const RunInfo&) override;
@@ -87,6 +103,7 @@ class ProgressReporter : public Observer {
   bool terminal_;
   std::chrono::steady_clock::time_point start_, last_print_;
   int last_decile_ = -1;
+  bool line_open_ = false;  // a bar was printed with \r and no newline yet
 };
 
 // Linear fit of the total energy against time.
@@ -102,15 +119,21 @@ EnergyStatistics energy_statistics(const std::vector<double>& time, const std::v
 // are those of the conserved energy (the total energy when no thermostat works).
 class SummaryReporter : public Observer {
  public:
-  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out);
+  // platform: facts about where the run ran (e.g. {"simd_target", "AVX2"}, {"threads", "2"}), printed
+  // next to the cost and written to summary.json as strings, so every speed figure names its machine.
+  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out,
+                  std::vector<std::pair<std::string, std::string>> platform = {});
   long every() const override { return every_; }
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
+  Carried checkpoint(const RunInfo&) override;
+  void resume(const RunInfo&, const Carried&) override;
 
  private:
   long every_;
   std::filesystem::path dir_;
   std::FILE* out_;
+  std::vector<std::pair<std::string, std::string>> platform_;
   std::vector<double> time_, conserved_, temperature_, constraint_rms_;
   std::vector<std::vector<double>> diagnostics_;
 };

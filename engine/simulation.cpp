@@ -3,6 +3,8 @@
 #include <cmath>
 
 #include "engine/errors.hpp"
+#include "engine/start_state.hpp"
+#include "engine/stop.hpp"
 
 namespace vimd {
 
@@ -40,21 +42,124 @@ Sample Simulation::sample(const State& state, const StepReport& report) const {
   return s;
 }
 
+namespace {
+
+std::string atom_label(const System& system, int i) {
+  std::string label = "atom " + std::to_string(i + 1);
+  if (i < static_cast<int>(system.atom_names.size()) && i < static_cast<int>(system.residue_names.size()) &&
+      i < static_cast<int>(system.residue_numbers.size()))
+    label += " (" + system.atom_names[i] + " of " + system.residue_names[i] + " " +
+             std::to_string(system.residue_numbers[i]) + ")";
+  return label;
+}
+
+// Beyond these a state is not physics any more: an H atom under 1e6 kJ/mol/nm moves 2 nm in a 2 fs
+// step; 1e3 nm/ps is ~300 times the thermal speed of H at 1000 K.
+constexpr double kAbsurdForce = 1e6;     // kJ/mol/nm
+constexpr double kAbsurdVelocity = 1e3;  // nm/ps
+constexpr double kAbsurdPosition = 1e6;  // nm
+
+}  // namespace
+
+void Simulation::check_sane(const State& state) const {
+  const System& system = problem_.system;
+  std::string atoms;
+  int count = 0;
+  const char* worst = nullptr;
+  auto bad = [](const Coords& c, int i, double limit) {
+    const auto col = c.col(i);
+    return !col.allFinite() || col.norm() > limit;
+  };
+  for (int i = 0; i < system.n_atoms(); ++i) {
+    const char* what = bad(state.q, i, kAbsurdPosition)   ? "position"
+                       : bad(state.v, i, kAbsurdVelocity) ? "velocity"
+                       : bad(state.f, i, kAbsurdForce)    ? "force"
+                                                          : nullptr;
+    if (!what) continue;
+    if (!worst) worst = what;
+    if (++count <= 5) atoms += std::string(atoms.empty() ? "" : ", ") + atom_label(system, i) + " " + what;
+  }
+  if (count == 0 && std::isfinite(state.potential)) return;
+  std::string message = "the system blew up at step " + std::to_string(state.step) + ": ";
+  if (count == 0)
+    message += "the potential energy is not finite";
+  else
+    message += std::to_string(count) + " atom(s) with a non-finite or absurd position, velocity or force (|f| > " +
+               "1e6 kJ/mol/nm, |v| > 1e3 nm/ps): " + atoms + (count > 5 ? ", ..." : "");
+  message += "; try a smaller dt, or check the structure for overlapping atoms";
+  throw BlowUpError(state.step, message);
+}
+
+void Simulation::write_checkpoint_now(const State& state, const RunInfo& info, const RunTotals& totals) {
+  Checkpoint cp;
+  cp.identity = checkpoints_.identity;
+  cp.first_step = info.first_step;
+  cp.last_step = info.last_step;
+  cp.state = state;
+  cp.integrator = integrator_.carried_state();
+  cp.force_field = problem_.force_field.save();
+  cp.totals.put("start_time", start_time_);
+  cp.totals.put("wall_seconds", totals.wall_seconds);
+  cp.totals.put("force_evaluations", static_cast<double>(totals.force_evaluations));
+  cp.totals.put("hessian_evaluations", static_cast<double>(totals.hessian_evaluations));
+  cp.totals.put("neighbor_rebuilds", static_cast<double>(totals.neighbor_rebuilds));
+  cp.totals.put("solver_iterations", static_cast<double>(totals.solver_iterations));
+  for (auto& o : observers_) cp.observers.push_back(o->checkpoint(info));
+  write_checkpoint(checkpoints_.file, cp);
+}
+
 RunTotals Simulation::run(State& state, long steps) {
-  const std::vector<std::string> diagnostic_names = integrator_.diagnostic_names();
-  RunInfo info{problem_, integrator_, state.step, state.step + steps, dt_,
-               problem_.force_field.energy_names(), diagnostic_names};
-
-  const long evaluations0 = problem_.force_field.force_evaluations();
-  const long hessians0 = problem_.force_field.hessian_evaluations();
-  const long rebuilds0 = problem_.force_field.neighbor_rebuilds();
-  if (!initialized_) integrator_.init(problem_, state);
-  initialized_ = true;
-  const auto start = std::chrono::steady_clock::now();
-
+  RunInfo info{problem_,       integrator_, state.step, state.step + steps, state.step, dt_,
+               problem_.force_field.energy_names(), integrator_.diagnostic_names()};
+  // The start's force evaluations count.
+  evaluations0_ = problem_.force_field.force_evaluations();
+  hessians0_ = problem_.force_field.hessian_evaluations();
+  rebuilds0_ = problem_.force_field.neighbor_rebuilds();
+  // A later run continues the same state: constrained and set up already.
+  if (!initialized_) {
+    constrain_start(problem_, state);
+    integrator_.init(problem_, state);
+    initialized_ = true;
+  }
+  check_sane(state);
+  start_time_ = state.time;
+  wall0_ = std::chrono::steady_clock::now();
   for (auto& o : observers_) o->begin(info);
-  StepReport report;
-  report.diagnostics.assign(diagnostic_names.size(), std::nan(""));
+  return loop(state, info, RunTotals{});
+}
+
+RunTotals Simulation::resume(const Checkpoint& cp, long last_step, State& state) {
+  if (cp.observers.size() != observers_.size())
+    throw std::logic_error("Simulation::resume: the checkpoint has " + std::to_string(cp.observers.size()) +
+                           " observers, this simulation " + std::to_string(observers_.size()));
+  RunInfo info{problem_,       integrator_, cp.first_step, last_step, cp.state.step, dt_,
+               problem_.force_field.energy_names(), integrator_.diagnostic_names()};
+  // init() sets the integrator up (its forces and start-up work are discarded); then the neighbour
+  // lists, the State and the integrator's carried state are put back exactly as they were.
+  State scratch = cp.state;
+  integrator_.init(problem_, scratch);
+  problem_.force_field.restore(cp.force_field);
+  state = cp.state;
+  integrator_.restore(problem_, state, cp.integrator);
+  initialized_ = true;
+  start_time_ = cp.totals.number("start_time");
+  // Only the work from here on counts on top of the checkpoint's totals.
+  evaluations0_ = problem_.force_field.force_evaluations();
+  hessians0_ = problem_.force_field.hessian_evaluations();
+  rebuilds0_ = problem_.force_field.neighbor_rebuilds();
+  wall0_ = std::chrono::steady_clock::now();
+  RunTotals totals;
+  totals.wall_seconds = cp.totals.number("wall_seconds");
+  totals.force_evaluations = static_cast<long>(cp.totals.number("force_evaluations"));
+  totals.hessian_evaluations = static_cast<long>(cp.totals.number("hessian_evaluations"));
+  totals.neighbor_rebuilds = static_cast<long>(cp.totals.number("neighbor_rebuilds"));
+  totals.solver_iterations = static_cast<long>(cp.totals.number("solver_iterations"));
+  for (std::size_t k = 0; k < observers_.size(); ++k) observers_[k]->resume(info, cp.observers[k]);
+  return loop(state, info, totals);
+}
+
+RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
+  StepReport report;  // before the first step: no diagnostics (the energy file shows 0)
   auto notify = [&](bool force_all) {
     bool sampled = false;
     Sample s;
@@ -66,27 +171,57 @@ RunTotals Simulation::run(State& state, long steps) {
       }
     }
   };
-  notify(true);
+  // Totals so far: the checkpoint's (if continued) plus this process's work.
+  auto totals_now = [&] {
+    RunTotals t = base;
+    t.wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count();
+    t.force_evaluations += problem_.force_field.force_evaluations() - evaluations0_;
+    t.hessian_evaluations += problem_.force_field.hessian_evaluations() - hessians0_;
+    t.neighbor_rebuilds += problem_.force_field.neighbor_rebuilds() - rebuilds0_;
+    t.steps = state.step - info.first_step;
+    return t;
+  };
+  if (info.start_step == info.first_step) notify(true);
 
-  RunTotals totals;
-  const double t0 = state.time;
-  for (long n = 0; n < steps; ++n) {
-    report = integrator_.step(problem_, state);
-    ++state.step;
-    ++totals.steps;
-    state.time = t0 + (n + 1) * dt_;
-    totals.solver_iterations += report.iterations;
-    if (!std::isfinite(state.potential))
-      throw ConvergenceError(integrator_.name(), state.step, report.iterations, report.residual,
-                             "the potential energy is not finite (the system blew up; try a smaller dt)");
-    notify(n + 1 == steps || report.finished);
-    if (report.finished) break;
+  auto last_checkpoint = std::chrono::steady_clock::now();
+  State last_good;
+  try {
+    while (state.step < info.last_step) {
+      last_good.q = state.q, last_good.v = state.v, last_good.step = state.step, last_good.time = state.time;
+      report = integrator_.step(problem_, state);
+      ++state.step;
+      state.time = start_time_ + (state.step - info.first_step) * dt_;
+      base.solver_iterations += report.iterations;
+      check_sane(state);
+      notify(state.step == info.last_step || report.finished);
+      if (report.finished) break;  // a minimiser converged
+      if (checkpoints_.file.empty()) continue;
+      if (const int signal = stop_signal()) {
+        RunTotals totals = totals_now();
+        totals.stop_signal = signal;
+        write_checkpoint_now(state, info, totals);
+        for (auto& o : observers_) o->stop(info);
+        return totals;
+      }
+      const auto now = std::chrono::steady_clock::now();
+      const bool due = checkpoints_.every_steps > 0
+                           ? (state.step - info.first_step) % checkpoints_.every_steps == 0
+                           : std::chrono::duration<double>(now - last_checkpoint).count() >= checkpoints_.every_seconds;
+      if (due && state.step < info.last_step) {
+        write_checkpoint_now(state, info, totals_now());
+        last_checkpoint = now;
+      }
+    }
+  } catch (...) {
+    // Best effort while failing already: the first error is the one to report.
+    for (auto& o : observers_) try {
+        o->fail(info, last_good);
+      } catch (...) {
+      }
+    throw;
   }
-
-  totals.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  totals.force_evaluations = problem_.force_field.force_evaluations() - evaluations0;
-  totals.hessian_evaluations = problem_.force_field.hessian_evaluations() - hessians0;
-  totals.neighbor_rebuilds = problem_.force_field.neighbor_rebuilds() - rebuilds0;
+  RunTotals totals = totals_now();
+  if (!checkpoints_.file.empty()) write_checkpoint_now(state, info, totals);
   for (auto& o : observers_) o->finish(info, state, totals);
   return totals;
 }

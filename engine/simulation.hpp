@@ -2,10 +2,13 @@
 // The one loop over steps. Integrators advance the state; observers (files, progress bar,
 // summary) see samples of it. Nothing else in the code base loops over time steps.
 #include <chrono>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "engine/checkpoint.hpp"
+#include "engine/errors.hpp"
 #include "engine/integrator.hpp"
 
 namespace vimd {
@@ -22,13 +25,14 @@ struct Sample {
   double constraint_rms = 0;         // RMS relative deviation of constraint lengths
   std::vector<double> energy_terms;  // kJ/mol, per ForceField::energy_names()
   Vec3 momentum = Vec3::Zero();      // Σ m v, amu nm/ps
-  std::vector<double> diagnostics;   // per Integrator::diagnostic_names()
+  std::vector<double> diagnostics;   // per Integrator::diagnostic_names(); empty before the first step
 };
 
 struct RunInfo {
   const Problem& problem;
   const Integrator& integrator;
-  long first_step, last_step;
+  long first_step, last_step;  // the whole run's span, also when continued from a checkpoint
+  long start_step;             // where this process started (first_step, or a checkpoint's step)
   double dt;
   std::vector<std::string> energy_names, diagnostic_names;
 };
@@ -38,6 +42,7 @@ struct RunTotals {
   long steps = 0;
   long force_evaluations = 0, hessian_evaluations = 0, neighbor_rebuilds = 0;
   long solver_iterations = 0;  // summed StepReport::iterations
+  int stop_signal = 0;         // the run stopped early, resumable, on this signal (0: it finished)
 };
 
 class Observer {
@@ -51,25 +56,63 @@ class Observer {
   virtual void observe(const RunInfo&, const State&, const Sample&) = 0;
   // Called only after a successful run.
   virtual void finish(const RunInfo&, const State&, const RunTotals&) {}
+  // Checkpoints: flush, and return what a continued run needs (file sizes, sampled series).
+  virtual Carried checkpoint(const RunInfo&) { return {}; }
+  // Replaces begin() on a run continued from a checkpoint.
+  virtual void resume(const RunInfo& info, const Carried& /*carried*/) { begin(info); }
+  // The run stopped on request (after a checkpoint): close files, keep them resumable.
+  virtual void stop(const RunInfo&) {}
+  // The run failed; last_good is the state before the failing step.
+  virtual void fail(const RunInfo&, const State& /*last_good*/) {}
+};
+
+// When to write state.cpt: every `every_steps` steps, or (0) every `every_seconds` of wall time;
+// always when the run stops on a signal and at its end.
+struct CheckpointPolicy {
+  std::filesystem::path file;  // empty: no checkpoints (and no stopping on signals)
+  long every_steps = 0;
+  double every_seconds = 900;
+  RunIdentity identity;
+};
+
+// A run that cannot go on: a non-finite or absurd force, position, velocity or energy.
+class BlowUpError : public ConvergenceError {
+ public:
+  BlowUpError(long step, const std::string& what) : ConvergenceError(what, step) {}
 };
 
 class Simulation {
  public:
   Simulation(Problem& problem, Integrator& integrator, double dt);
   void add_observer(std::unique_ptr<Observer> observer);
-  // init() the integrator (on the first run only: a later run continues the same state), then
-  // step `steps` times, or fewer when a step reports finished. Throws what the integrator throws
-  // (ConvergenceError), after which no observer's finish() has run.
+  void set_checkpoints(CheckpointPolicy policy) { checkpoints_ = std::move(policy); }
+  // On the first run only (a later run continues the same state): constrain the start
+  // (constrain_start) and init() the integrator. Then step `steps` times, or fewer when a step
+  // reports finished. Throws what the integrator throws (ConvergenceError) or BlowUpError, after
+  // which no observer's finish() has run (their fail() has). Returns early, resumable, when a stop
+  // signal arrives (engine/stop): totals.stop_signal says so.
   RunTotals run(State& state, long steps);
+  // Continues a checkpointed run up to its step `last_step`; the observers must be those of the
+  // stopped run, in the same order. Afterwards the outputs are those of an uninterrupted run.
+  RunTotals resume(const Checkpoint& checkpoint, long last_step, State& state);
 
  private:
   Sample sample(const State& state, const StepReport& report) const;
+  RunTotals loop(State& state, RunInfo& info, RunTotals totals);
+  void write_checkpoint_now(const State& state, const RunInfo& info, const RunTotals& totals);
+  // InputError or BlowUpError naming the atoms if the state is not fit to be written.
+  void check_sane(const State& state) const;
 
   Problem& problem_;
   Integrator& integrator_;
   double dt_;
   bool initialized_ = false;
   std::vector<std::unique_ptr<Observer>> observers_;
+  CheckpointPolicy checkpoints_;
+  // Work counters of the force field when this process's counting began.
+  long evaluations0_ = 0, hessians0_ = 0, rebuilds0_ = 0;
+  std::chrono::steady_clock::time_point wall0_;
+  double start_time_ = 0;  // ps, at the run's first step: time = start_time + (step − first_step) dt
 };
 
 }  // namespace vimd

@@ -5,12 +5,14 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <tuple>
@@ -52,6 +54,12 @@ std::vector<std::string> split_words(std::string_view s) {
 }
 
 bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+std::string format_number(double value) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", value);
+  return buf;
+}
 
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -279,6 +287,7 @@ struct MoleculeType {
   std::vector<Bond> bonds;
   std::vector<Angle> angles;
   std::vector<Constraint> constraints;
+  std::vector<Where> constraint_lines;  // per constraint: the [ constraints ] or [ settles ] line
   std::vector<std::pair<int, int>> chemical_bonds;  // the graph nrexcl counts along
   std::vector<std::pair<int, int>> explicit_exclusions;
   std::optional<Unsupported> unsupported;  // the first entry vimd cannot compute
@@ -638,8 +647,9 @@ class TopologyParser {
       molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has particle type " + std::string(1, type.ptype) +
                                                " (virtual site or shell), which is not supported");
     else if (a.mass <= 0)
-      molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has mass " + std::to_string(a.mass) +
-                                               "; massless atoms are not supported");
+      molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has mass " + format_number(a.mass) +
+                                               " amu: every atom needs a positive mass (the equations of motion and " +
+                                               "the constraint solver divide by it; virtual sites are not supported)");
     molecule.atoms.push_back(std::move(a));
   }
 
@@ -683,6 +693,9 @@ class TopologyParser {
         f.error("no parameters for this bond: no [ bondtypes ] entry " + key.first + " " + key.second + " 1");
       params = std::vector{it->second.first.first, it->second.first.second};
     }
+    if ((*params)[0] < 0 || (*params)[1] < 0)
+      f.error("bond length b0 and force constant kb must not be negative (b0 " + format_number((*params)[0]) + " nm, kb " +
+              format_number((*params)[1]) + " kJ/mol/nm^2)");
     molecule.bonds.push_back({i, j, (*params)[0], (*params)[1]});
     molecule.chemical_bonds.emplace_back(i, j);
   }
@@ -725,6 +738,7 @@ class TopologyParser {
     }
     if ((*params)[0] <= 0) f.error("constraint length must be positive");
     molecule.constraints.push_back({i, j, (*params)[0]});
+    molecule.constraint_lines.push_back(f.where());
     if (func == 1) molecule.chemical_bonds.emplace_back(i, j);  // type 2 generates no exclusions
   }
 
@@ -742,6 +756,7 @@ class TopologyParser {
     molecule.constraints.push_back({o, o + 1, doh});
     molecule.constraints.push_back({o, o + 2, doh});
     molecule.constraints.push_back({o + 1, o + 2, dhh});
+    molecule.constraint_lines.insert(molecule.constraint_lines.end(), 3, f.where());
     molecule.chemical_bonds.emplace_back(o, o + 1);
     molecule.chemical_bonds.emplace_back(o, o + 2);
   }
@@ -763,7 +778,78 @@ class TopologyParser {
       fail(it->unsupported->where, "molecule type '" + it->name + "' (used in [ molecules ] at " + f.where().str() +
                                        "): " + it->unsupported->what);
     if (it->atoms.empty()) f.error("molecule type '" + it->name + "' has no atoms");
+    check_constraint_set(*it);
+    // A typo such as an extra digit must not become an attempt to allocate billions of atoms.
+    constexpr long kMaxAtoms = 10'000'000;
+    const long atoms = static_cast<long>(it->atoms.size());
+    if (count > kMaxAtoms / atoms || total_atoms_ + count * atoms > kMaxAtoms)
+      f.error("'" + it->name + " " + f[1] + "' makes the system larger than vimd's limit of " +
+              std::to_string(kMaxAtoms) + " atoms (a typo in the count?)");
+    total_atoms_ += count * atoms;
     molecule_counts_.push_back({static_cast<int>(it - molecules_.begin()), static_cast<int>(count)});
+  }
+
+  // The constraints of a molecule must be independent, or the constraint matrix G M⁻¹ Gᵀ is singular
+  // and no solver converges: no pair twice, no flat or impossible triangle, and no cluster of N atoms
+  // with more than the 3N − 6 distances a rigid body has.
+  static void check_constraint_set(const MoleculeType& m) {
+    const auto& list = m.constraints;
+    const auto& lines = m.constraint_lines;
+    std::map<std::pair<int, int>, int> index;  // atom pair (i < j) -> constraint
+    for (std::size_t a = 0; a < list.size(); ++a) {
+      const auto [it, inserted] = index.try_emplace(std::minmax(list[a].i, list[a].j), static_cast<int>(a));
+      if (!inserted)
+        fail(lines[a], "atoms " + std::to_string(list[a].i + 1) + " and " + std::to_string(list[a].j + 1) +
+                           " of molecule type '" + m.name + "' are constrained twice (first at " +
+                           lines[it->second].str() + "): the constraint set is over-determined");
+    }
+    std::vector<std::vector<int>> partners(m.atoms.size());
+    for (const Constraint& c : list) {
+      partners[c.i].push_back(c.j);
+      partners[c.j].push_back(c.i);
+    }
+    for (const auto& [pair, ab] : index)
+      for (int k : partners[pair.first]) {
+        if (k <= pair.second) continue;  // each triangle once, from its two smallest atoms
+        const auto jk = index.find(std::minmax(pair.second, k));
+        if (jk == index.end()) continue;
+        const int ak = index.at(std::minmax(pair.first, k));
+        std::array<double, 3> d{list[ab].length, list[ak].length, list[jk->second].length};
+        std::sort(d.begin(), d.end());
+        if (d[2] < (d[0] + d[1]) * (1 - 1e-6)) continue;
+        const int last = std::max({ab, ak, jk->second});
+        fail(lines[last], "the constraints between atoms " + std::to_string(pair.first + 1) + ", " +
+                              std::to_string(pair.second + 1) + " and " + std::to_string(k + 1) + " of molecule type '" +
+                              m.name + "' form " + (d[2] > d[0] + d[1] ? "an impossible" : "a flat") + " triangle (" +
+                              format_number(d[0]) + " + " + format_number(d[1]) + " vs " + format_number(d[2]) +
+                              " nm): the three constraints are not independent (over-determined)");
+      }
+    // Clusters of coupled constraints (union-find over atoms).
+    std::vector<int> parent(m.atoms.size());
+    for (std::size_t k = 0; k < parent.size(); ++k) parent[k] = static_cast<int>(k);
+    const auto root = [&](int k) {
+      while (parent[k] != k) k = parent[k] = parent[parent[k]];
+      return k;
+    };
+    for (const Constraint& c : list) parent[root(c.i)] = root(c.j);
+    std::map<int, std::set<int>> atoms;
+    std::map<int, int> count, last;
+    for (std::size_t a = 0; a < list.size(); ++a) {
+      const int r = root(list[a].i);
+      atoms[r].insert(list[a].i);
+      atoms[r].insert(list[a].j);
+      ++count[r];
+      last[r] = static_cast<int>(a);
+    }
+    for (const auto& [r, members] : atoms) {
+      const int n = static_cast<int>(members.size());
+      if (n < 3 || count[r] <= 3 * n - 6) continue;
+      fail(lines[last[r]], std::to_string(count[r]) + " constraints join " + std::to_string(n) + " atoms (" +
+                               std::to_string(*members.begin() + 1) + ".." + std::to_string(*members.rbegin() + 1) +
+                               ") of molecule type '" + m.name + "', but a rigid body of " + std::to_string(n) +
+                               " atoms has only " + std::to_string(3 * n - 6) +
+                               " independent distances: the constraint set is over-determined");
+    }
   }
 
   // Per atom of a molecule type: the atoms within nrexcl chemical bonds plus [ exclusions ].
@@ -921,6 +1007,7 @@ class TopologyParser {
   std::map<std::array<std::string, 3>, std::pair<std::pair<double, double>, Where>> angletypes_;
   std::vector<MoleculeType> molecules_;
   std::vector<MoleculeCount> molecule_counts_;
+  long total_atoms_ = 0;
   std::string title_;
 };
 

@@ -20,9 +20,9 @@ constexpr int kReal = sizeof(double);
 
 }  // namespace
 
-TrrWriter::TrrWriter(const std::filesystem::path& file, int natoms) : path_(file), natoms_(natoms) {
+TrrWriter::TrrWriter(const std::filesystem::path& file, int natoms, bool append) : path_(file), natoms_(natoms) {
   if (natoms <= 0) throw std::invalid_argument("TrrWriter: number of atoms must be positive");
-  out_ = std::fopen(file.c_str(), "wb");
+  out_ = std::fopen(file.c_str(), append ? "ab" : "wb");
   if (!out_) throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(errno));
 }
 
@@ -81,7 +81,7 @@ void TrrWriter::write(long step, double time, const Box& box, const Coords* x, c
   if (v) put_coords(*v);
   if (f) put_coords(*f);
   if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size() || std::fflush(out_) != 0)
-    throw std::runtime_error("error writing " + path_.string() + " (disk full?)");
+    throw std::runtime_error(path_.string() + ": cannot write (disk full?): " + std::strerror(errno));
 }
 
 }  // namespace vimd

@@ -12,8 +12,8 @@ namespace vimd {
 
 class TrrWriter {
  public:
-  // Creates (truncates) the file.
-  TrrWriter(const std::filesystem::path& file, int natoms);
+  // Creates (truncates) the file, or appends to it (continuing a stopped run's trajectory).
+  TrrWriter(const std::filesystem::path& file, int natoms, bool append = false);
   ~TrrWriter();
   TrrWriter(const TrrWriter&) = delete;
   TrrWriter& operator=(const TrrWriter&) = delete;

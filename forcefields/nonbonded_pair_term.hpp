@@ -1,7 +1,7 @@
 #pragma once
 // The nonbonded pair term: one OpenMP pair loop over the cluster-pair Verlet list, evaluating the
 // Lennard-Jones kernel (lennard_jones.hpp) and the reaction-field Coulomb kernel (reaction_field.hpp)
-// for every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
+// with the SIMD kernels of the CPU's best target (nonbonded_kernels.hpp) for every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
 //   V = Σ_{i<j, not excluded, r<rc} [V_LJ(r) + V_RF(r)] + Σ_{excluded, r<rc} V_RF,excl(r) + Σ_i V_RF,self
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
@@ -16,8 +16,7 @@
 #include "engine/force_field.hpp"
 #include "engine/neighbor_list.hpp"
 #include "engine/system.hpp"
-#include "forcefields/lennard_jones.hpp"
-#include "forcefields/reaction_field.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 
 namespace vimd {
 
@@ -29,7 +28,10 @@ class NonbondedPairTerm : public ForceTerm {
   void add_forces(const Coords& q, Coords& f, std::span<double> energies) override;
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override;
   void prepare(const Coords& q) override;
+  void fix_pair_set(const Coords* q) override;
   long rebuilds() const override { return list_.builds(); }
+  void save(Carried& out) const override;
+  void restore(const Carried& in) override;
 
   const NeighborList& neighbor_list() const { return list_; }
   // Hessian–vector products that reused the cut-off masks of an earlier force evaluation.
@@ -59,6 +61,7 @@ class NonbondedPairTerm : public ForceTerm {
   const std::uint32_t* find_inside_masks(const Coords& q);
   static bool same_positions(const Coords& a, const Coords& b);
   void refresh_layout();  // slot-ordered charges and types after a list rebuild
+  PairView pair_view() const;
   void ensure_buffers();
   template <class Pack, class Kernel>
   void run_parallel(Pack&& pack, Kernel&& kernel, Coords& out);
@@ -86,6 +89,8 @@ class NonbondedPairTerm : public ForceTerm {
   std::vector<std::uint32_t> list_masks_;
   long cache_clock_ = 0, hessian_cache_hits_ = 0;
   bool hessian_requested_ = false;
+  bool pair_set_fixed_ = false;
+  std::vector<std::uint32_t> fixed_masks_;  // per list entry: the fixed set's pairs
 };
 
 }  // namespace vimd

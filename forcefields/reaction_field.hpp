@@ -11,11 +11,10 @@
 // The excluded-pair and self terms are what GROMACS's nbnxm kernels add (kernel_ref_inner.h:
 // excluded pairs inside the cut-off keep qq (k_rf r² − c_rf); kernel_ref_outer.h: −½ qi² c_rf per atom).
 //
-// Kernels use the same convention as lennard_jones.hpp (templates on double / SimdDouble):
+// The pair kernels (reaction_field-inl.h) use the same convention as lennard_jones.hpp:
 // g = −φ'/r, a = φ'/r, b = (φ'' − φ'/r)/r²; qq already includes f/eps_r.
 #include <string>
 
-#include "engine/simd.hpp"
 
 namespace vimd {
 
@@ -30,19 +29,6 @@ struct ReactionField {
 
 // coulomb: "reaction-field" | "cutoff" | "none"; throws InputError for anything else or bad epsilons.
 ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff);
-
-template <class T>
-inline void rf_energy_force(const ReactionField& rf, T qq, T rinv, T r2, T& v, T& g) {
-  v = qq * (rinv + rf.k_rf * r2 - rf.c_rf);
-  g = qq * (rinv * rinv * rinv - 2.0 * rf.k_rf);
-}
-
-template <class T>
-inline void rf_hessian(const ReactionField& rf, T qq, T rinv, T& a, T& b) {
-  const T rinv3 = rinv * rinv * rinv;
-  a = qq * (2.0 * rf.k_rf - rinv3);
-  b = 3.0 * qq * rinv3 * rinv * rinv;
-}
 
 // Excluded pair inside the cut-off: φ = qq (k_rf r² − c_rf), a pure quadratic (b = 0).
 inline void rf_excluded_energy_force(const ReactionField& rf, double qq, double r2, double& v, double& g) {

@@ -39,8 +39,18 @@ void SteepestDescent::init(Problem& problem, State& state) {
   check_start(problem, state);
   state.v.setZero();
   ones_ = Eigen::VectorXd::Ones(problem.system.n_atoms());
-  constrain_start(problem, state, tolerance_, max_iterations_);
   evaluate_forces(problem, state, forces_);
+  constrained_force(problem, state);
+}
+
+Carried SteepestDescent::carried_state() const {
+  Carried c;
+  c.put("step_size", step_size_);
+  return c;
+}
+
+void SteepestDescent::restore(Problem& problem, const State& state, const Carried& carried) {
+  step_size_ = carried.number("step_size");
   constrained_force(problem, state);
 }
 

@@ -16,13 +16,16 @@ class SteepestDescent : public Integrator {
  public:
   explicit SteepestDescent(const IntegratorConfig& config);
   std::string name() const override { return "minimize"; }
-  // Zeroes the velocities, constrains the start and evaluates its (constrained) forces.
+  // Zeroes the velocities and evaluates the forces of the start (the engine has constrained it).
   void init(Problem& problem, State& state) override;
   // iterations / residual: those of the constraint solve of the trial move. finished: the largest
   // constrained force is below emtol, or the step has shrunk below what double precision resolves.
   StepReport step(Problem& problem, State& state) override;
   // max_force: kJ/mol/nm, max_force_atom: 1-based, step_size: nm (the next trial's h).
   std::vector<std::string> diagnostic_names() const override { return {"max_force", "max_force_atom", "step_size"}; }
+  // The step size h: all a checkpoint needs besides the State.
+  Carried carried_state() const override;
+  void restore(Problem& problem, const State& state, const Carried& carried) override;
 
   // The largest constrained force at the current state and the atom (0-based) that carries it.
   double max_force() const { return max_force_; }

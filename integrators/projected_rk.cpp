@@ -55,7 +55,20 @@ ProjectedRungeKutta::~ProjectedRungeKutta() = default;
 void ProjectedRungeKutta::init(Problem& problem, State& state) {
   check_start(problem, state);
   work_ = std::make_unique<Work>(problem, tableau_, projection_);
-  work_->settle(state.q, state.v, state, state.step);
+  // The start is on TQ already (the engine constrains it): only the forces there are needed.
+  Work& w = *work_;
+  problem.force_field.compute(state.q, w.forces);
+  state.f = w.forces.f;
+  state.potential = w.forces.potential;
+  state.energy_terms = w.forces.terms;
+}
+
+void ProjectedRungeKutta::restore(Problem& problem, const State& state, const Carried&) {
+  if (!work_ || work_->problem != &problem)
+    throw std::logic_error("ProjectedRungeKutta::restore before init() for this problem");
+  work_->forces.f = state.f;
+  work_->forces.potential = state.potential;
+  work_->forces.terms = state.energy_terms;
 }
 
 StepReport ProjectedRungeKutta::step(Problem& problem, State& state) {

@@ -23,6 +23,8 @@ class ProjectedRungeKutta : public Integrator {
   void init(Problem& problem, State& state) override;
   // StepReport: iterations and residual of the position projection.
   StepReport step(Problem& problem, State& state) override;
+  // Carries nothing but the forces at the current positions, which the State holds.
+  void restore(Problem& problem, const State& state, const Carried& carried) override;
 
  private:
   struct Work;

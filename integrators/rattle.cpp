@@ -4,15 +4,6 @@
 
 namespace vimd {
 
-int constrain_start(const Problem& problem, State& state, double tolerance, int max_iterations) {
-  if (problem.constraints.empty()) return 0;
-  const Coords q_ref = state.q;
-  const int iterations =
-      problem.constraints.solve_positions(q_ref, state.q, problem.inverse_mass, tolerance, state.step, max_iterations);
-  problem.constraints.project_velocities(state.q, state.v, problem.inverse_mass);
-  return iterations;
-}
-
 Rattle::Rattle(const IntegratorConfig& config)
     : dt_(config.dt),
       tolerance_(config.constraint_tolerance),
@@ -23,7 +14,6 @@ Rattle::Rattle(const IntegratorConfig& config)
 
 void Rattle::init(Problem& problem, State& state) {
   check_start(problem, state);
-  constrain_start(problem, state, tolerance_, max_iterations_);
   evaluate_forces(problem, state, forces_);
 }
 

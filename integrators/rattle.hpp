@@ -10,11 +10,6 @@
 
 namespace vimd {
 
-// Puts the starting state on the constraint manifold (a .gro carries only 3 decimals):
-// positions by a mass-weighted projection (solve_positions with q_ref = q), velocities by the
-// M⁻¹-orthogonal projection onto the tangent space. Returns the position iterations.
-int constrain_start(const Problem& problem, State& state, double tolerance, int max_iterations);
-
 class Rattle : public Integrator {
  public:
   explicit Rattle(const IntegratorConfig& config);
@@ -25,6 +20,15 @@ class Rattle : public Integrator {
   // With thermostat = "v-rescale", v_{n+1} is rescaled at the end of the step.
   StepReport step(Problem& problem, State& state) override;
   double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
+  // The thermostat's random stream and work: all a checkpoint needs besides the State.
+  Carried carried_state() const override {
+    Carried c;
+    if (thermostat_) thermostat_->save(c);
+    return c;
+  }
+  void restore(Problem&, const State&, const Carried& carried) override {
+    if (thermostat_) thermostat_->load(carried);
+  }
 
  private:
   double dt_, tolerance_;

@@ -18,7 +18,6 @@ Shake::Shake(const IntegratorConfig& config)
 
 void Shake::init(Problem& problem, State& state) {
   check_start(problem, state);
-  constrain_start(problem, state, tolerance_, max_iterations_);
   evaluate_forces(problem, state, forces_);
   next_.valid = false;
 }

@@ -1,6 +1,8 @@
 #include "integrators/thermostat.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <vector>
 
 #include "engine/errors.hpp"
 #include "engine/integrator.hpp"
@@ -20,6 +22,24 @@ std::array<std::uint64_t, 4> RandomStream::seeded(std::uint64_t seed) {
     word = z ^ (z >> 31);
   }
   return s;
+}
+
+void VRescaleThermostat::save(Carried& carried) const {
+  std::vector<double> words;
+  for (std::uint64_t word : state_.rng) {
+    words.push_back(static_cast<double>(word >> 32));
+    words.push_back(static_cast<double>(word & 0xffffffffULL));
+  }
+  carried.put("thermostat_rng", std::move(words));
+  carried.put("thermostat_work", state_.work);
+}
+
+void VRescaleThermostat::load(const Carried& carried) {
+  const std::vector<double>& words = carried.values("thermostat_rng");
+  if (words.size() != 2 * state_.rng.size()) throw std::runtime_error("checkpoint: entry \"thermostat_rng\" has the wrong size");
+  for (std::size_t k = 0; k < state_.rng.size(); ++k)
+    state_.rng[k] = (static_cast<std::uint64_t>(words[2 * k]) << 32) | static_cast<std::uint64_t>(words[2 * k + 1]);
+  state_.work = carried.number("thermostat_work");
 }
 
 double RandomStream::uniform() {

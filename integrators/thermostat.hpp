@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 
+#include "engine/carried.hpp"
 #include "engine/config.hpp"
 #include "engine/types.hpp"
 
@@ -49,6 +50,10 @@ class VRescaleThermostat {
   double work() const { return state_.work; }
   const VRescaleState& state() const { return state_; }
   void set_state(const VRescaleState& state) { state_ = state; }
+  // For a checkpoint: the state as exact doubles (each random word as two 32-bit halves), so a
+  // continued run draws the same numbers as an uninterrupted one.
+  void save(Carried& carried) const;
+  void load(const Carried& carried);
 
  private:
   double temperature_, decay_;  // decay = exp(−dt/τ)

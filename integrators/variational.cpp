@@ -124,6 +124,44 @@ std::vector<std::string> VariationalIntegrator::diagnostic_names() const {
 const Coords& VariationalIntegrator::qbar() const { return work_->qbar; }
 const Coords& VariationalIntegrator::pbar() const { return work_->pbar; }
 
+Carried VariationalIntegrator::carried_state() const {
+  Carried c;
+  if (!work_) return c;
+  const Work& w = *work_;
+  c.put("qbar", w.qbar);
+  c.put("pbar", w.pbar);
+  c.put("p_offset", w.p_offset);
+  c.put("q_offset", w.q_offset);
+  c.put("v_offset", w.v_offset);
+  c.put("plus_segment_v", w.seg_plus.v);
+  c.put("contraction", w.contraction);
+  return c;
+}
+
+void VariationalIntegrator::restore(Problem& problem, const State& state, const Carried& c) {
+  Work& w = work(problem, "restore");
+  const Eigen::Index n = w.q.cols();
+  auto take = [&](const char* name, Coords& into) {
+    Coords value = c.coords(name);
+    if (value.cols() != n) throw std::invalid_argument(std::string("VariationalIntegrator::restore: ") + name);
+    into = std::move(value);
+  };
+  take("qbar", w.qbar);
+  take("pbar", w.pbar);
+  take("p_offset", w.p_offset);
+  take("q_offset", w.q_offset);
+  take("v_offset", w.v_offset);
+  take("plus_segment_v", w.seg_plus.v);
+  w.contraction = c.number("contraction");
+  w.q = state.q;
+  w.v = state.v;
+  // The first stage's forces are those at q, which the State holds (as write_state put them).
+  Forces& forces = w.seg_plus.stages[0].forces;
+  forces.f = state.f;
+  forces.potential = state.potential;
+  forces.terms = state.energy_terms;
+}
+
 void VariationalIntegrator::set_cotangent(const Coords& qbar, const Coords& pbar) {
   work_->qbar = qbar;
   work_->pbar = pbar;
@@ -205,12 +243,11 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   const Eigen::VectorXd& mass = problem.system.mass;
   const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
 
-  // Start on TQ: positions onto the constraints, velocities M-orthogonally onto the tangent space.
-  w.projection.project(state.q, w.proj_q, state.step);
-  w.q = w.proj_q.x;
+  // The start is on TQ already (the engine constrains it, the same for every integrator): take it as it is.
+  w.q = state.q;
   w.v = state.v;
   w.mass_q.set_point(w.q);
-  w.mass_q.apply(w.v);
+  const FixedPairSet pair_set(problem.force_field, w.q);  // as a step from w₀ would fix it (see step())
   forward_segments(w, w.q, w.v, state.step);
 
   // p⁺(w₀), p⁻(w₀) with w₀ fixed: the same residual, p̄ replaced by the unknown p⁻ (spec §6, init).
@@ -371,6 +408,12 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   const Eigen::VectorXd& mass = problem.system.mass;
   const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
 
+  // One potential for the whole step: the pairs inside the cut-off at q̄ (known before the solve),
+  // each continued smoothly past the cut-off. The step's discrete Lagrangian L_h,k is then smooth,
+  // so the iteration converges to any tolerance; the steps' Lagrangians differ only by pairs at the
+  // cut-off. The map (q̄_k, p̄_k) ↦ (q̄_k+1, p̄_k+1) is still the one of a discrete Lagrangian (L_h,k
+  // for this step), hence symplectic, and V_k is translation invariant, so Σ p̄ is conserved.
+  const FixedPairSet pair_set(problem.force_field, w.qbar);
   predict(w, state, step);
   w.history_start = 0;
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.

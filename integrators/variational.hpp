@@ -55,6 +55,10 @@ class VariationalIntegrator : public Integrator {
   // crossing the cut-off; residual then above the tolerance but within 100×), discrete Noether
   // linear momentum Σ p̄ (amu nm/ps).
   std::vector<std::string> diagnostic_names() const override;
+  // (q̄, p̄), the predictor's offsets and contraction estimate, and the accepted ∂⁺ segment's end
+  // velocity (the next prediction starts from it).
+  Carried carried_state() const override;
+  void restore(Problem& problem, const State& state, const Carried& carried) override;
 
   const VariationalSettings& settings() const { return settings_; }
   const Coords& qbar() const;

@@ -28,6 +28,15 @@ class VelocityVerlet : public Integrator {
   // With thermostat = "v-rescale", v_{n+1} is rescaled at the end of the step.
   StepReport step(Problem& problem, State& state) override;
   double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
+  // The thermostat's random stream and work: all a checkpoint needs besides the State.
+  Carried carried_state() const override {
+    Carried c;
+    if (thermostat_) thermostat_->save(c);
+    return c;
+  }
+  void restore(Problem&, const State&, const Carried& carried) override {
+    if (thermostat_) thermostat_->load(carried);
+  }
 
  private:
   double dt_;

@@ -21,3 +21,20 @@ add_test(NAME python_module
          COMMAND ${PY} -m pytest -q -p no:cacheprovider ${CMAKE_SOURCE_DIR}/tests/python)
 set_tests_properties(python_module PROPERTIES ENVIRONMENT
                      "OMP_NUM_THREADS=2;VIMD_CLI=$<TARGET_FILE:vimd>;PYTHONPATH=$<TARGET_FILE_DIR:vimd_python>")
+# Issue 10: frame 0 is the same whatever the integrator (the engine constrains the start once).
+add_test(NAME start_state
+         COMMAND bash ${CMAKE_SOURCE_DIR}/tests/start_state.sh $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}
+                 ${CMAKE_BINARY_DIR}/test-start-state)
+set_tests_properties(start_state PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")
+# Issue 10: a real SIGTERM to a running vimd, then --continue: the same outputs as without the stop.
+add_test(NAME stop_continue
+         COMMAND bash ${CMAKE_SOURCE_DIR}/tests/stop_continue.sh $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}
+                 ${CMAKE_BINARY_DIR}/test-stop-continue)
+set_tests_properties(stop_continue PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")
+
+# The bad-input catalogue (issue 10): one directory per case under tests/bad_inputs, each with
+# the command, exit status and message fragment it expects.
+add_test(NAME bad_inputs
+         COMMAND ${PY} ${CMAKE_SOURCE_DIR}/tests/bad_inputs.py $<TARGET_FILE:vimd> ${CMAKE_SOURCE_DIR}/tests/bad_inputs
+                 ${CMAKE_BINARY_DIR}/test-bad-inputs)
+set_tests_properties(bad_inputs PROPERTIES TIMEOUT 600)

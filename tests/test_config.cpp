@@ -21,6 +21,7 @@ TEST(Config, ReadsEveryKey) {
   EXPECT_EQ(c.output.dir, kConfig / "results/run1");
   EXPECT_EQ(c.output.trajectory_every, 50);
   EXPECT_EQ(c.output.energy_every, 5);
+  EXPECT_EQ(c.output.checkpoint_every, 2000);
 
   EXPECT_DOUBLE_EQ(c.forcefield.cutoff, 1.0);
   EXPECT_EQ(c.forcefield.vdw_modifier, "potential-switch");
@@ -72,6 +73,7 @@ TEST(Config, DefaultsFromTheContract) {
   EXPECT_EQ(c.integrator.method, in.method);
   EXPECT_EQ(c.output.trajectory_every, out.trajectory_every);
   EXPECT_EQ(c.output.energy_every, out.energy_every);
+  EXPECT_EQ(c.output.checkpoint_every, 0);  // 0: by wall time
   EXPECT_EQ(c.output.dir, kConfig / out.dir);  // the default dir is relative to the config too
 }
 
@@ -103,7 +105,12 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"missing_structure.toml", "[system] needs structure"},
       {"structure_not_found.toml", "nowhere.gro does not exist"},
       {"negative_energy_every.toml", "energy_every must not be negative"},
+      {"negative_checkpoint_every.toml", "checkpoint_every must not be negative"},
       {"infinite_dt.toml", "dt must be a finite number"},
+      {"control_character.toml", "control character 0x01"},
+      {"non_ascii_after_value.toml", "non-ASCII character outside a string or comment"},
+      {"non_ascii_key.toml", "non-ASCII character in a quoted key"},
+      {"non_ascii_multi_line_string.toml", "non-ASCII character in a multi-line string"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);
@@ -119,6 +126,14 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       EXPECT_NE(what.find(c.problem), std::string::npos) << what;
     }
   }
+}
+
+// Non-ASCII text is refused only where the TOML parser cannot take it (see config.cpp).
+TEST(Config, NonAsciiTextInCommentsAndStringValuesIsRead) {
+  const RunConfig c = read_config(kConfig / "non_ascii.toml");
+  EXPECT_EQ(c.output.dir, kConfig / "r\xc3\xa9sultats/\xe6\xb0\xb4");
+  EXPECT_EQ(c.integrator.bias[0], 0.25);
+  EXPECT_EQ(c.integrator.bias[1], 0.75);
 }
 
 TEST(Config, MissingFileIsAnInputError) {

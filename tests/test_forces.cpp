@@ -9,12 +9,17 @@
 #include "engine/errors.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
+#include "forcefields/lennard_jones-inl.h"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/reaction_field-inl.h"
 #include "forcefields/registry.hpp"
 #include "test_ff_systems.hpp"
 
 namespace vimd {
 namespace {
+
+// The scalar (double) instantiations of the pair kernels, from the build's static SIMD target.
+using namespace vimd::HWY_NAMESPACE;
 
 using testing::evaluate;
 using testing::hessian_vector;

@@ -92,6 +92,7 @@ TEST(Gro, MalformedFilesNameFileAndLine) {
       {"missing_box.gro", 6, "missing box line"},
       {"triclinic.gro", 6, "triclinic"},
       {"missing_velocity.gro", 4, "no velocities on this atom line"},
+      {"late_velocity.gro", 4, "the first atom line (line 3) has none"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);
@@ -169,21 +170,21 @@ TEST(Gro, FailedWriteLeavesNoFile) {
 TEST(Gro, ApplyStructureChecksAtomsAgainstTopology) {
   const GroFrame frame = read_gro(kData / "water2.gro");
   System s = named_system(6);
-  apply_structure(s, frame, kData / "water2.gro");
+  EXPECT_TRUE(apply_structure(s, frame, kData / "water2.gro", "topol.top").empty());
   EXPECT_EQ(s.box.length, frame.box.length);
 
+  // As grompp: different names are a warning naming the first line, and the topology's names stay.
   System wrong_name = named_system(6);
   wrong_name.atom_names[4] = "HX";
-  try {
-    apply_structure(wrong_name, frame, kData / "water2.gro");
-    ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.line(), 7);
-    EXPECT_NE(std::string(e.what()).find("water2.gro:7"), std::string::npos) << e.what();
-  }
+  const auto warnings = apply_structure(wrong_name, frame, kData / "water2.gro", "topol.top");
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("water2.gro:7: 1 atom name(s) do not match"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("'HW1' here, 'HX' in the topology"), std::string::npos) << warnings[0];
+  EXPECT_EQ(wrong_name.atom_names[4], "HX");
+
   System too_few = named_system(3);
   try {
-    apply_structure(too_few, frame, kData / "water2.gro");
+    apply_structure(too_few, frame, kData / "water2.gro", "topol.top");
     ADD_FAILURE() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.line(), 2);

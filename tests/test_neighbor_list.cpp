@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <map>
 #include <random>
 #include <set>
@@ -12,11 +13,16 @@
 
 #include "engine/errors.hpp"
 #include "engine/neighbor_list.hpp"
+#include "forcefields/lennard_jones-inl.h"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/reaction_field-inl.h"
 #include "test_ff_systems.hpp"
 
 namespace vimd {
 namespace {
+
+// The scalar (double) instantiations of the pair kernels, from the build's static SIMD target.
+using namespace vimd::HWY_NAMESPACE;
 
 using testing::relative_difference;
 
@@ -147,6 +153,30 @@ TEST(NeighborList, MatchesBruteForceOverDisplacedConfigurations) {
     }
     EXPECT_GT(expected_builds, 3);
   }
+}
+
+// Every SIMD target this CPU can run (an AVX-512 machine also runs the AVX2, SSE4 and portable
+// paths) against the scalar brute force, for every LJ modifier with and without Coulomb, so that no
+// target's kernels can rot unseen on a machine that would not choose them.
+TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
+  const std::vector<std::string> targets = simd::available_targets();
+  ASSERT_FALSE(targets.empty());
+  std::printf("SIMD targets tested: ");
+  for (const auto& t : targets) std::printf("%s ", t.c_str());
+  std::printf("(automatic choice: %s)\n", simd::target_name().c_str());
+  auto [system, q] = testing::water_like_system(300, Vec3(2.5, 2.4, 2.6), 31);
+  for (const std::string& target : targets) {
+    simd::use_target(target);
+    ASSERT_EQ(simd::target_name(), target);
+    for (const char* coulomb : {"reaction-field", "none"})
+      for (const char* modifier : kModifiers) {
+        NonbondedPairTerm term(system, testing::pair_config(modifier, coulomb, 0.0));
+        expect_matches_brute_force(term, system, q, target + " " + modifier + " " + coulomb);
+      }
+  }
+  simd::use_target("");
+  EXPECT_EQ(simd::target_name(), targets.front());
+  EXPECT_THROW(simd::use_target("NO-SUCH-TARGET"), InputError);
 }
 
 // Pairs that were just inside cut-off + skin at the build are pulled together by almost skin/2

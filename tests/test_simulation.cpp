@@ -182,3 +182,40 @@ TEST(Simulation, FailedRunLeavesOnlyPartialFiles) {
   EXPECT_TRUE(fs::exists(dir / "energy.csv.partial"));
   std::fclose(sink);
 }
+
+// Verlet on the springs at ω dt ≈ 7 (stable only below 2): amplitudes grow ~50-fold per step.
+// The run must stop at the first absurd step, naming the atoms, with no NaN or Inf in any file
+// and the last good frame kept as last_good.gro.
+TEST(Simulation, BlowUpStopsAtTheStepNamingTheAtoms) {
+  Fixture fx;
+  fx.system.mass.setOnes();
+  Problem problem = fx.problem();
+  TestVerlet integrator(1.0);
+  const fs::path dir = fs::temp_directory_path() / "vimd_test_simulation_blowup";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Simulation sim(problem, integrator, 1.0);
+  sim.add_observer(std::make_unique<EnergyWriter>(dir, 1));
+  sim.add_observer(std::make_unique<FinalStructureWriter>(dir));
+  long failed_at = -1;
+  try {
+    sim.run(fx.state, 1000);
+    FAIL() << "the run should have blown up";
+  } catch (const BlowUpError& e) {
+    failed_at = e.step();
+    const std::string what = e.what();
+    EXPECT_NE(what.find("blew up at step " + std::to_string(e.step())), std::string::npos) << what;
+    EXPECT_NE(what.find("atom 1 (X of SPR 1)"), std::string::npos) << what;
+  }
+  EXPECT_GT(failed_at, 1);
+  EXPECT_LT(failed_at, 20);  // |v| passes 1e3 nm/ps within a few steps, long before overflow
+  const auto csv = lines(dir / "energy.csv.partial");
+  EXPECT_EQ(csv.size(), 1u + failed_at);  // header + steps 0 .. failed_at − 1
+  for (const auto& row : csv) {
+    EXPECT_EQ(row.find("nan"), std::string::npos) << row;
+    EXPECT_EQ(row.find("inf"), std::string::npos) << row;
+  }
+  EXPECT_FALSE(fs::exists(dir / "energy.csv"));
+  ASSERT_TRUE(fs::exists(dir / "last_good.gro"));
+  EXPECT_NE(lines(dir / "last_good.gro")[0].find("step " + std::to_string(failed_at - 1)), std::string::npos);
+}

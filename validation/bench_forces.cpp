@@ -1,7 +1,7 @@
 // Benchmark (prints figures, asserts nothing, not a test): cost of one force evaluation, one
 // Hessian–vector product (with and without the force pass's cut-off masks) and one neighbour-list
 // build for the system of a run file, on 1 and 2 OpenMP threads; best of several batches.
-//   cmake --build build --target bench_forces && build/bench_forces inputs/water4000/run.toml
+//   cmake --build build --target bench_forces && build/bench_forces inputs/water4000/run.toml [SIMD_TARGET]
 #include <omp.h>
 
 #include <algorithm>
@@ -11,6 +11,7 @@
 
 #include "engine/input.hpp"
 #include "engine/neighbor_list.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
 #include "forcefields/registry.hpp"
 
@@ -35,10 +36,11 @@ double best_ms(int calls, F&& f) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: %s RUN.toml\n", argv[0]);
+  if (argc != 2 && argc != 3) {
+    std::fprintf(stderr, "usage: %s RUN.toml [SIMD_TARGET]\n", argv[0]);
     return 2;
   }
+  if (argc == 3) vimd::simd::use_target(argv[2]);
   const vimd::RunInput input = vimd::read_run_input(argv[1]);
   const vimd::System& system = input.system;
   const vimd::Coords& q = input.state.q;
@@ -48,6 +50,7 @@ int main(int argc, char** argv) {
   for (int i = 0; i < q.cols(); ++i)
     for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
 
+  std::printf("SIMD %s (%d doubles per vector)\n", vimd::simd::target_name().c_str(), vimd::simd::lanes());
   std::printf("%d atoms, cutoff %.3f nm, skin %.3f nm, %s, %s\n", system.n_atoms(), input.config.forcefield.cutoff,
               input.config.forcefield.neighbor_skin, input.config.forcefield.vdw_modifier.c_str(),
               input.config.forcefield.coulomb.c_str());

@@ -46,6 +46,9 @@ class PySimulation {
  public:
   PySimulation(const std::filesystem::path& config, const ConfigOverrides& overrides)
       : model_(load_model(config, overrides)), run_(std::make_unique<Run>(*model_)) {
+    // The input checks' warnings (the command line prints them) as Python's UserWarning.
+    for (const std::string& warning : model_->input.warnings)
+      if (PyErr_WarnEx(PyExc_UserWarning, warning.c_str(), 1) != 0) throw py::error_already_set();
     const long energy_every = model_->input.config.output.energy_every;
     sample_every_ = energy_every > 0 ? energy_every : 10;
     attach_observer();

@@ -1,0 +1,213 @@
+#include "engine/checkpoint.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+namespace {
+
+// Native byte order: a checkpoint continues a run on the machine (or kind of machine) it stopped on.
+constexpr char kMagic[8] = {'V', 'I', 'M', 'D', 'C', 'P', 'T', '1'};
+constexpr char kEnd[8] = {'E', 'N', 'D', 'V', 'I', 'M', 'D', '.'};
+
+class Writer {
+ public:
+  std::string bytes;
+  template <class T>
+  void raw(const T& x) {
+    bytes.append(reinterpret_cast<const char*>(&x), sizeof x);
+  }
+  void text(const std::string& s) {
+    raw<std::uint64_t>(s.size());
+    bytes += s;
+  }
+  void doubles(const double* p, std::size_t n) {
+    raw<std::uint64_t>(n);
+    bytes.append(reinterpret_cast<const char*>(p), n * sizeof(double));
+  }
+  void coords(const Coords& c) { doubles(c.data(), c.size()); }
+  void carried(const Carried& c) {
+    raw<std::uint64_t>(c.items.size());
+    for (const auto& [name, values] : c.items) {
+      text(name);
+      doubles(values.data(), values.size());
+    }
+  }
+};
+
+class Reader {
+ public:
+  Reader(std::string bytes, std::string file) : bytes_(std::move(bytes)), file_(std::move(file)) {}
+  template <class T>
+  T raw() {
+    T x;
+    take(&x, sizeof x);
+    return x;
+  }
+  std::string text() {
+    std::string s(count(1), '\0');
+    take(s.data(), s.size());
+    return s;
+  }
+  std::vector<double> doubles() {
+    std::vector<double> v(count(sizeof(double)));
+    take(v.data(), v.size() * sizeof(double));
+    return v;
+  }
+  Coords coords() {
+    const std::vector<double> v = doubles();
+    if (v.size() % 3) fail("an array is not 3 x N");
+    return Eigen::Map<const Coords>(v.data(), 3, static_cast<Eigen::Index>(v.size() / 3));
+  }
+  Carried carried() {
+    Carried c;
+    const std::size_t n = count(1);
+    for (std::size_t k = 0; k < n; ++k) {
+      std::string name = text();
+      c.items[name] = doubles();
+    }
+    return c;
+  }
+  bool at_end() const { return pos_ == bytes_.size(); }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(file_, 0, "not a usable vimd checkpoint (" + what + ")");
+  }
+
+ private:
+  std::size_t count(std::size_t element) {
+    const auto n = raw<std::uint64_t>();
+    if (n > (bytes_.size() - pos_) / element) fail("truncated or damaged");
+    return static_cast<std::size_t>(n);
+  }
+  void take(void* out, std::size_t n) {
+    if (n > bytes_.size() - pos_) fail("truncated or damaged");
+    std::memcpy(out, bytes_.data() + pos_, n);
+    pos_ += n;
+  }
+  std::string bytes_, file_;
+  std::size_t pos_ = 0;
+};
+
+[[noreturn]] void write_failed(const std::filesystem::path& file, const std::string& what) {
+  throw std::runtime_error(file.string() + ": cannot write the checkpoint (" + what + "): " + std::strerror(errno));
+}
+
+}  // namespace
+
+void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
+  Writer w;
+  w.bytes.append(kMagic, sizeof kMagic);
+  w.raw<std::uint64_t>(cp.identity.size());
+  for (const auto& [key, value] : cp.identity) w.text(key), w.text(value);
+  w.raw<std::int64_t>(cp.first_step);
+  w.raw<std::int64_t>(cp.last_step);
+  const State& s = cp.state;
+  w.raw<std::int64_t>(s.step);
+  w.raw(s.time);
+  w.raw(s.potential);
+  w.doubles(s.energy_terms.data(), s.energy_terms.size());
+  w.coords(s.q);
+  w.coords(s.v);
+  w.coords(s.f);
+  w.carried(cp.integrator);
+  w.carried(cp.force_field);
+  w.carried(cp.totals);
+  w.raw<std::uint64_t>(cp.observers.size());
+  for (const Carried& c : cp.observers) w.carried(c);
+  w.bytes.append(kEnd, sizeof kEnd);
+
+  // A crash at any point leaves either the old checkpoint or the new one, never half of one.
+  const std::filesystem::path fresh = file.string() + ".new";
+  const int fd = ::open(fresh.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) write_failed(fresh, "open");
+  std::size_t done = 0;
+  while (done < w.bytes.size()) {
+    const ssize_t n = ::write(fd, w.bytes.data() + done, w.bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (n == 0) errno = ENOSPC;
+      const int saved = errno;
+      ::close(fd);
+      errno = saved;
+      write_failed(fresh, "write");
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) {
+    const int saved = errno;
+    ::close(fd);
+    errno = saved;
+    write_failed(fresh, "fsync");
+  }
+  if (::close(fd) != 0) write_failed(fresh, "close");
+  if (std::rename(fresh.c_str(), file.c_str()) != 0) write_failed(file, "rename");
+  const std::filesystem::path dir = file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd >= 0) {  // makes the rename durable; best effort where directories cannot be opened
+    ::fsync(dir_fd);
+    ::close(dir_fd);
+  }
+}
+
+Checkpoint read_checkpoint(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file.string(), 0, "cannot open the checkpoint (is this the directory of a stopped run?)");
+  Reader r(std::string(std::istreambuf_iterator<char>(in), {}), file.string());
+  char magic[sizeof kMagic];
+  for (char& c : magic) c = r.raw<char>();
+  if (std::memcmp(magic, kMagic, sizeof kMagic) != 0) r.fail("wrong magic number");
+  Checkpoint cp;
+  const auto n_identity = r.raw<std::uint64_t>();
+  for (std::uint64_t k = 0; k < n_identity && k < 1000; ++k) {
+    std::string key = r.text();
+    cp.identity.emplace_back(std::move(key), r.text());
+  }
+  cp.first_step = r.raw<std::int64_t>();
+  cp.last_step = r.raw<std::int64_t>();
+  State& s = cp.state;
+  s.step = r.raw<std::int64_t>();
+  s.time = r.raw<double>();
+  s.potential = r.raw<double>();
+  s.energy_terms = r.doubles();
+  s.q = r.coords();
+  s.v = r.coords();
+  s.f = r.coords();
+  cp.integrator = r.carried();
+  cp.force_field = r.carried();
+  cp.totals = r.carried();
+  const auto n_observers = r.raw<std::uint64_t>();
+  for (std::uint64_t k = 0; k < n_observers && k < 1000; ++k) cp.observers.push_back(r.carried());
+  char end[sizeof kEnd];
+  for (char& c : end) c = r.raw<char>();
+  if (std::memcmp(end, kEnd, sizeof kEnd) != 0 || !r.at_end()) r.fail("damaged end marker");
+  if (s.q.cols() != s.v.cols() || s.q.cols() != s.f.cols()) r.fail("inconsistent array sizes");
+  return cp;
+}
+
+void check_identity(const std::filesystem::path& file, const RunIdentity& checkpoint, const RunIdentity& here) {
+  std::string differences;
+  auto add = [&](const std::string& text) { differences += (differences.empty() ? "" : "; ") + text; };
+  for (const auto& [key, value] : here) {
+    std::string stored;
+    bool found = false;
+    for (const auto& [k, v] : checkpoint)
+      if (k == key) stored = v, found = true;
+    if (!found)
+      add(key + " missing in the checkpoint");
+    else if (stored != value)
+      add(key + ": " + stored + " in the checkpoint, " + value + " here");
+  }
+  if (!differences.empty())
+    throw InputError(file.string(), 0,
+                     "the checkpoint belongs to another system or configuration, refusing to continue: " + differences);
+}
+
+}  // namespace vimd

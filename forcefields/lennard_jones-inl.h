@@ -1,0 +1,85 @@
+// Lennard-Jones pair kernels (formulas and conventions: lennard_jones.hpp), as templates on the
+// number type: double, or SimdDouble (simd-inl.h). A Highway per-target header: see simd-inl.h.
+#if defined(VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
+#undef VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
+#else
+#define VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
+#endif
+
+#include "forcefields/lennard_jones.hpp"
+#include "forcefields/simd-inl.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace vimd {
+namespace HWY_NAMESPACE {
+
+template <VdwModifier M, class T>
+inline void lj_energy_force(const LjConstants& k, T c6, T c12, T rinv2, T r, T& v, T& g) {
+  const T rinv6 = rinv2 * rinv2 * rinv2;
+  const T rep = c12 * rinv6 * rinv6;  // c12 r⁻¹²
+  const T dis = c6 * rinv6;           // c6 r⁻⁶
+  if constexpr (M == VdwModifier::none || M == VdwModifier::potential_shift) {
+    v = rep - dis + (c12 * k.shift12 - c6 * k.shift6);
+    g = (12.0 * rep - 6.0 * dis) * rinv2;
+  } else if constexpr (M == VdwModifier::force_switch) {
+    const T x = positive_part(r - k.r_switch);
+    const T x2 = x * x, x3 = x2 * x;
+    const T rinv = rinv2 * r;
+    v = rep - dis + c12 * (k.shift12 - (k.a12 / 3 + k.b12 / 4.0 * x) * x3) -
+        c6 * (k.shift6 - (k.a6 / 3 + k.b6 / 4.0 * x) * x3);
+    g = (12.0 * rep - 6.0 * dis) * rinv2 + (c12 * (k.a12 + k.b12 * x) - c6 * (k.a6 + k.b6 * x)) * x2 * rinv;
+  } else {  // potential_switch
+    const T x = positive_part(r - k.r_switch);
+    const T x2 = x * x;
+    const T rinv = rinv2 * r;
+    const T s = 1.0 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
+    const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
+    const T u = rep - dis;
+    const T minus_du_r = 12.0 * rep - 6.0 * dis;  // −r dV/dr
+    v = u * s;
+    g = minus_du_r * s * rinv2 - u * ds * rinv;
+  }
+}
+
+template <VdwModifier M, class T>
+inline void lj_hessian(const LjConstants& k, T c6, T c12, T rinv2, T r, T& a, T& b) {
+  const T rinv6 = rinv2 * rinv2 * rinv2;
+  const T rep = c12 * rinv6 * rinv6;
+  const T dis = c6 * rinv6;
+  if constexpr (M == VdwModifier::none || M == VdwModifier::potential_shift) {
+    a = (6.0 * dis - 12.0 * rep) * rinv2;
+    b = (168.0 * rep - 48.0 * dis) * rinv2 * rinv2;
+  } else if constexpr (M == VdwModifier::force_switch) {
+    // Per power p: φ_p'/r = −p r^-(p+2) − (A x² + B x³)/r;
+    // (φ_p'' − φ_p'/r)/r² = [p(p+2) r^-(p+2) − 2A x − 3B x² + (A x² + B x³)/r] / r².
+    const T x = positive_part(r - k.r_switch);
+    const T x2 = x * x;
+    const T rinv = rinv2 * r;
+    const T poly12 = (k.a12 + k.b12 * x) * x2, poly6 = (k.a6 + k.b6 * x) * x2;
+    a = (6.0 * dis - 12.0 * rep) * rinv2 - (c12 * poly12 - c6 * poly6) * rinv;
+    b = ((168.0 * rep - 48.0 * dis) * rinv2 - c12 * ((2.0 * k.a12 + 3.0 * k.b12 * x) * x - poly12 * rinv) +
+         c6 * ((2.0 * k.a6 + 3.0 * k.b6 * x) * x - poly6 * rinv)) *
+        rinv2;
+  } else {  // potential_switch: φ = U S, φ' = U'S + U S', φ'' = U''S + 2U'S' + U S''
+    const T x = positive_part(r - k.r_switch);
+    const T x2 = x * x;
+    const T rinv = rinv2 * r;
+    const T s = 1.0 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
+    const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
+    const T dds = (6.0 * k.s3 + (12.0 * k.s4 + 20.0 * k.s5 * x) * x) * x;
+    const T u = rep - dis;
+    const T du = (6.0 * dis - 12.0 * rep) * rinv;      // U'
+    const T ddu = (156.0 * rep - 42.0 * dis) * rinv2;  // U''
+    const T dphi = du * s + u * ds;
+    const T ddphi = ddu * s + 2.0 * du * ds + u * dds;
+    a = dphi * rinv;
+    b = (ddphi - a) * rinv2;
+  }
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace vimd
+HWY_AFTER_NAMESPACE();
+
+#endif  // VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_

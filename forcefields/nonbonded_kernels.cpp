@@ -1,0 +1,317 @@
+// The pair loops over the cluster-pair list, once per SIMD target (Highway's foreach_target
+// re-includes this file for each), dispatched at run time. A j-cluster (8 atoms) is processed as
+// 8 / lanes vectors of the target's native width; the i-half's force sums stay in registers over
+// the whole half, and each j sub-cluster is updated once per list entry.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "forcefields/nonbonded_kernels.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+
+#include "forcefields/lennard_jones-inl.h"
+#include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/reaction_field-inl.h"
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace vimd {
+namespace HWY_NAMESPACE {
+namespace {
+
+constexpr int kC = NeighborList::kClusterSize;
+constexpr int kH = NeighborList::kHalfSize;
+
+// The i-half's atoms, loaded once per half.
+struct HalfData {
+  double x[kH], y[kH], z[kH], q[kH];
+  const double *c6[kH], *c12[kH];
+};
+
+HWY_INLINE void load_half(const PairView& d, int h, HalfData& hi) {
+  const int ib = h * kH;
+  for (int ii = 0; ii < kH; ++ii) {
+    hi.x[ii] = d.x[ib + ii];
+    hi.y[ii] = d.y[ib + ii];
+    hi.z[ii] = d.z[ib + ii];
+    hi.q[ii] = d.rf.prefactor * d.charge[ib + ii];
+    hi.c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
+    hi.c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
+  }
+}
+
+template <VdwModifier M, bool kCoulomb>
+void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy, double* fz,
+                  double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
+  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  const unsigned lane_bits = (1u << lanes) - 1;
+  const SimdDouble one = simd_broadcast(1.0), zero = simd_zero();
+  for (int h = h0; h < h1; ++h) {
+    const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
+    half_lj[h] = half_coulomb[h] = 0;
+    if (e0 == e1) continue;
+    HalfData hi;
+    load_half(d, h, hi);
+    SimdDouble fxi[kH], fyi[kH], fzi[kH];
+    for (int ii = 0; ii < kH; ++ii) fxi[ii] = fyi[ii] = fzi[ii] = zero;
+    SimdDouble e_lj = zero, e_coulomb = zero;
+    for (int e = e0; e < e1; ++e) {
+      const NeighborList::Entry entry = d.entries[e];
+      const Vec3& shift = d.shifts[entry.shift];
+      const std::uint32_t mask = masks ? masks[e] : entry.mask;
+      std::uint32_t inside_bits = 0;
+      for (int js = 0; js < kC; js += lanes) {
+        const int jb = entry.j_cluster * kC + js;
+        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                         zj = simd_load(d.z + jb) + shift[2];
+        SimdDouble fxj = zero, fyj = zero, fzj = zero;
+#pragma GCC unroll 4  // the i sums are registers only if their index is a constant
+        for (int ii = 0; ii < kH; ++ii) {
+          const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
+          if (bits == 0) continue;
+          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+          const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
+          const SimdMask inside = mask_from_bits(bits) & (r2 < d.cutoff2);
+          if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
+          const SimdDouble r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
+          const SimdDouble rinv = simd_rsqrt(r2s);
+          const SimdDouble rinv2 = rinv * rinv;
+          SimdDouble v, g;
+          lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
+          e_lj += keep(inside, v);
+          if constexpr (kCoulomb) {
+            SimdDouble vc, gc;
+            rf_energy_force(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
+            e_coulomb += keep(inside, vc);
+            g += gc;
+          }
+          g = keep(inside, g);
+          const SimdDouble gx = g * dx, gy = g * dy, gz = g * dz;
+          fxi[ii] += gx;
+          fyi[ii] += gy;
+          fzi[ii] += gz;
+          fxj -= gx;
+          fyj -= gy;
+          fzj -= gz;
+        }
+        simd_store(fx + jb, simd_load(fx + jb) + fxj);
+        simd_store(fy + jb, simd_load(fy + jb) + fyj);
+        simd_store(fz + jb, simd_load(fz + jb) + fzj);
+      }
+      if (inside_masks) inside_masks[e] = inside_bits;
+    }
+    const int ib = h * kH;
+    for (int ii = 0; ii < kH; ++ii) {
+      fx[ib + ii] += simd_sum(fxi[ii]);
+      fy[ib + ii] += simd_sum(fyi[ii]);
+      fz[ib + ii] += simd_sum(fzi[ii]);
+    }
+    half_lj[h] = simd_sum(e_lj);
+    half_coulomb[h] = simd_sum(e_coulomb);
+  }
+}
+
+// Per pair a u_ij + b (d·u_ij) d. Skipped rows contribute exact zeros, so the list's masks and a
+// force pass's inside masks give identical results.
+template <VdwModifier M, bool kCoulomb>
+void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
+                    int h0, int h1, double* ox, double* oy, double* oz) {
+  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  const unsigned lane_bits = (1u << lanes) - 1;
+  const SimdDouble one = simd_broadcast(1.0), zero = simd_zero();
+  for (int h = h0; h < h1; ++h) {
+    const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
+    if (e0 == e1) continue;
+    HalfData hi;
+    load_half(d, h, hi);
+    const int ib = h * kH;
+    double uxi[kH], uyi[kH], uzi[kH];
+    for (int ii = 0; ii < kH; ++ii) {
+      uxi[ii] = ux[ib + ii];
+      uyi[ii] = uy[ib + ii];
+      uzi[ii] = uz[ib + ii];
+    }
+    SimdDouble oxi[kH], oyi[kH], ozi[kH];
+    for (int ii = 0; ii < kH; ++ii) oxi[ii] = oyi[ii] = ozi[ii] = zero;
+    for (int e = e0; e < e1; ++e) {
+      const NeighborList::Entry entry = d.entries[e];
+      const Vec3& shift = d.shifts[entry.shift];
+      const std::uint32_t mask = masks[e];
+      for (int js = 0; js < kC; js += lanes) {
+        const int jb = entry.j_cluster * kC + js;
+        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                         zj = simd_load(d.z + jb) + shift[2];
+        const SimdDouble uxj = simd_load(ux + jb), uyj = simd_load(uy + jb), uzj = simd_load(uz + jb);
+        SimdDouble oxj = zero, oyj = zero, ozj = zero;
+#pragma GCC unroll 4  // the i sums are registers only if their index is a constant
+        for (int ii = 0; ii < kH; ++ii) {
+          const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
+          if (bits == 0) continue;
+          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+          const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
+          const SimdMask inside = mask_from_bits(bits) & (r2 < d.cutoff2);
+          const SimdDouble r2s = select(inside, r2, one);
+          const SimdDouble rinv = simd_rsqrt(r2s);
+          const SimdDouble rinv2 = rinv * rinv;
+          SimdDouble a, b;
+          lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
+          if constexpr (kCoulomb) {
+            SimdDouble ac, bc;
+            rf_hessian(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, ac, bc);
+            a += ac;
+            b += bc;
+          }
+          a = keep(inside, a);
+          b = keep(inside, b);
+          const SimdDouble dux = uxi[ii] - uxj, duy = uyi[ii] - uyj, duz = uzi[ii] - uzj;
+          const SimdDouble bp = b * (dx * dux + dy * duy + dz * duz);
+          const SimdDouble hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
+          oxi[ii] += hx;
+          oyi[ii] += hy;
+          ozi[ii] += hz;
+          oxj -= hx;
+          oyj -= hy;
+          ozj -= hz;
+        }
+        simd_store(ox + jb, simd_load(ox + jb) + oxj);
+        simd_store(oy + jb, simd_load(oy + jb) + oyj);
+        simd_store(oz + jb, simd_load(oz + jb) + ozj);
+      }
+    }
+    for (int ii = 0; ii < kH; ++ii) {
+      ox[ib + ii] += simd_sum(oxi[ii]);
+      oy[ib + ii] += simd_sum(oyi[ii]);
+      oz[ib + ii] += simd_sum(ozi[ii]);
+    }
+  }
+}
+
+void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks) {
+  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  const unsigned lane_bits = (1u << lanes) - 1;
+  for (int h = h0; h < h1; ++h) {
+    HalfData hi;
+    load_half(d, h, hi);
+    for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
+      const NeighborList::Entry entry = d.entries[e];
+      const Vec3& shift = d.shifts[entry.shift];
+      std::uint32_t inside_bits = 0;
+      for (int js = 0; js < kC; js += lanes) {
+        const int jb = entry.j_cluster * kC + js;
+        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                         zj = simd_load(d.z + jb) + shift[2];
+        for (int ii = 0; ii < kH; ++ii) {
+          const unsigned bits = (entry.mask >> (ii * kC + js)) & lane_bits;
+          if (bits == 0) continue;
+          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+          const SimdMask inside = mask_from_bits(bits) & (dx * dx + dy * dy + dz * dz < d.cutoff2);
+          inside_bits |= bits_from_mask(inside) << (ii * kC + js);
+        }
+      }
+      inside_masks[e] = inside_bits;
+    }
+  }
+}
+
+template <bool kCoulomb>
+ForceKernel force_kernel_of(VdwModifier m) {
+  switch (m) {
+    case VdwModifier::none:
+      return force_halves<VdwModifier::none, kCoulomb>;
+    case VdwModifier::potential_shift:
+      return force_halves<VdwModifier::potential_shift, kCoulomb>;
+    case VdwModifier::force_switch:
+      return force_halves<VdwModifier::force_switch, kCoulomb>;
+    case VdwModifier::potential_switch:
+      return force_halves<VdwModifier::potential_switch, kCoulomb>;
+  }
+  return nullptr;
+}
+
+template <bool kCoulomb>
+HessianKernel hessian_kernel_of(VdwModifier m) {
+  switch (m) {
+    case VdwModifier::none:
+      return hessian_halves<VdwModifier::none, kCoulomb>;
+    case VdwModifier::potential_shift:
+      return hessian_halves<VdwModifier::potential_shift, kCoulomb>;
+    case VdwModifier::force_switch:
+      return hessian_halves<VdwModifier::force_switch, kCoulomb>;
+    case VdwModifier::potential_switch:
+      return hessian_halves<VdwModifier::potential_switch, kCoulomb>;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+// Entry points of this target, for HWY_DYNAMIC_DISPATCH.
+ForceKernel ForceKernelFor(VdwModifier m, bool coulomb) {
+  return coulomb ? force_kernel_of<true>(m) : force_kernel_of<false>(m);
+}
+HessianKernel HessianKernelFor(VdwModifier m, bool coulomb) {
+  return coulomb ? hessian_kernel_of<true>(m) : hessian_kernel_of<false>(m);
+}
+MaskKernel MaskKernelFor() { return mask_halves; }
+std::int64_t Target() { return HWY_TARGET; }
+int Lanes() { return static_cast<int>(hn::Lanes(SimdTag())); }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace vimd
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+#include <stdexcept>
+
+#include "engine/errors.hpp"
+
+namespace vimd {
+
+HWY_EXPORT(ForceKernelFor);
+HWY_EXPORT(HessianKernelFor);
+HWY_EXPORT(MaskKernelFor);
+HWY_EXPORT(Target);
+HWY_EXPORT(Lanes);
+
+namespace simd {
+
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb) {
+  const ForceKernel kernel = HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb);
+  if (!kernel) throw std::logic_error("unknown VdwModifier");
+  return kernel;
+}
+
+HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb) {
+  const HessianKernel kernel = HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb);
+  if (!kernel) throw std::logic_error("unknown VdwModifier");
+  return kernel;
+}
+
+MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
+
+std::string target_name() { return hwy::TargetName(HWY_DYNAMIC_DISPATCH(Target)()); }
+int lanes() { return HWY_DYNAMIC_DISPATCH(Lanes)(); }
+
+std::vector<std::string> available_targets() {
+  std::vector<std::string> names;
+  // SupportedAndGeneratedTargets lists the lowest bit first; on x86 a lower bit is a better target.
+  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) names.emplace_back(hwy::TargetName(target));
+  return names;
+}
+
+void use_target(const std::string& name) {
+  hwy::SetSupportedTargetsForTest(0);
+  if (!name.empty()) {
+    std::int64_t chosen = 0;
+    std::string known;
+    for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+      if (name == hwy::TargetName(target)) chosen = target;
+      known += std::string(known.empty() ? "" : ", ") + hwy::TargetName(target);
+    }
+    if (chosen == 0)
+      throw InputError("--simd", 0, "SIMD target '" + name + "' is not available on this CPU (available: " + known + ")");
+    hwy::SetSupportedTargetsForTest(chosen);
+  }
+  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+}
+
+}  // namespace simd
+}  // namespace vimd
+#endif  // HWY_ONCE

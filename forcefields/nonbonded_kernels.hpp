@@ -1,0 +1,64 @@
+#pragma once
+// The nonbonded pair kernels behind NonbondedPairTerm, compiled for every SIMD target Highway
+// supports on x86 (SSE4, AVX2, AVX-512, and a portable fallback) and chosen at run time for the
+// CPU the program runs on (nonbonded_kernels.cpp). Nothing here depends on the target: the view
+// is plain arrays, the kernels are plain function pointers.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "engine/neighbor_list.hpp"
+#include "forcefields/lennard_jones.hpp"
+#include "forcefields/reaction_field.hpp"
+
+namespace vimd {
+
+// Everything the inner loops read, as plain pointers. Positions, charges and LJ parameters are in
+// slot order; lj_c6[t * n_slots + s] is c6 between type t and the atom in slot s (likewise c12),
+// so a j-cluster's parameters for an i atom are contiguous vector loads.
+struct PairView {
+  const double *x, *y, *z;
+  const double* charge;
+  const int* type;
+  const double *lj_c6, *lj_c12;
+  std::size_t n_slots;
+  const NeighborList::Entry* entries;
+  const int* half_start;
+  const Vec3* shifts;
+  double cutoff2;
+  LjConstants lj;
+  ReactionField rf;
+};
+
+// Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
+// half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
+// on the thread count. masks[e] selects the pairs of entry e (null: the list's own masks); a pair
+// counts if it is selected and inside the view's cut-off. If inside_masks is not null,
+// inside_masks[e] receives the bits of entry e's pairs that counted.
+using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy,
+                             double* fz, double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
+// inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1).
+using MaskKernel = void (*)(const PairView&, int h0, int h1, std::uint32_t* inside_masks);
+// (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz); masks[e] selects the pairs of entry e (the
+// list's own masks, or the inside masks a force pass at the same positions recorded).
+using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
+                               const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz);
+
+namespace simd {
+
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb);
+MaskKernel mask_kernel();
+HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb);
+
+// The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
+std::string target_name();
+int lanes();
+// Targets compiled into this binary that this CPU can run, best first.
+std::vector<std::string> available_targets();
+// Restricts the kernels to one of available_targets() (tests, benchmarks, `--simd`); an empty name
+// restores the automatic choice. Throws InputError for a target that is not available.
+void use_target(const std::string& name);
+
+}  // namespace simd
+}  // namespace vimd

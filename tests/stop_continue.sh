@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# A real SIGTERM to a running `vimd run`, then `--continue` (issue 10): exit 143 with the command
+# that continues it, partial outputs and state.cpt kept; the continued run's outputs equal an
+# uninterrupted run's byte for byte (summary.json: all but wall-time fields). Also: a checkpoint of
+# another configuration is refused naming what differs, a finished run is neither continued nor
+# overwritten without --overwrite. Usage: stop_continue.sh VIMD_BINARY SOURCE_DIR WORK_DIR
+set -uo pipefail
+vimd=$1 src=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+failures=0
+fail() { echo "FAIL $*"; failures=$((failures + 1)); }
+ok() { echo "ok   $*"; }
+
+# The 8-water cluster, long enough (~3 s) to be caught running.
+sed -e "s|^structure = .*|structure = \"$src/inputs/cluster8/conf.gro\"|" \
+    -e "s|^topology = .*|topology = \"$src/inputs/cluster8/topol.top\"|" \
+    -e "s/^steps = .*/steps = 40000/" -e "s/^energy_every = .*/energy_every = 10/" \
+    -e "s/^trajectory_every = .*/trajectory_every = 500/" "$src/inputs/cluster8/run.toml" > "$work/run.toml"
+
+"$vimd" run "$work/run.toml" --out "$work/whole" > "$work/whole.log" 2>&1 || fail "uninterrupted run: $(cat "$work/whole.log")"
+
+"$vimd" run "$work/run.toml" --out "$work/split" > "$work/split.log" 2> "$work/split.err" &
+pid=$!
+for _ in $(seq 600); do  # until the run is well under way (or 60 s)
+  [[ -f "$work/split/energy.csv.partial" && $(wc -l < "$work/split/energy.csv.partial") -gt 200 ]] && break
+  sleep 0.1
+done
+kill -TERM $pid
+wait $pid
+rc=$?
+if [[ $rc -ne 143 ]]; then
+  fail "SIGTERM: exit $rc (wanted 143): $(cat "$work/split.err")"
+elif [[ -f "$work/split/summary.json" ]]; then
+  fail "SIGTERM came too late: the run had finished"
+else
+  ok "SIGTERM: exit 143, $(grep -o 'stopped by SIGTERM at step [0-9]*' "$work/split.err")"
+fi
+for f in state.cpt energy.csv.partial energy.xvg.partial traj.trr.partial; do
+  [[ -f "$work/split/$f" ]] || fail "the stopped run did not keep $f"
+done
+[[ -f "$work/split/energy.csv" ]] && fail "the stopped run passed its partial energies off as complete"
+continue_command=$(sed -n 's/^vimd: continue with: //p' "$work/split.err")
+[[ -n "$continue_command" ]] || fail "no continue command printed: $(cat "$work/split.err")"
+
+# Another configuration must not continue this run.
+sed -e "s/^dt = .*/dt = 0.0005/" "$work/run.toml" > "$work/other.toml"
+out=$("$vimd" run "$work/other.toml" --continue "$work/split" 2>&1); rc=$?
+if [[ $rc -eq 2 && "$out" == *"dt: 0.001 in the checkpoint, 0.0005 here"* ]]; then
+  ok "another config refused: ${out:0:160}..."
+else
+  fail "continuing with another dt: exit $rc: $out"
+fi
+# Nor may a new run silently replace the stopped one.
+out=$("$vimd" run "$work/run.toml" --out "$work/split" 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"holds a stopped run"* ]] && ok "a stopped run is not overwritten" || fail "new run over a stopped one: exit $rc: $out"
+
+${continue_command/#vimd /$vimd } > "$work/continue.log" 2>&1 || fail "continuing: $(cat "$work/continue.log")"
+for f in energy.csv energy.xvg traj.trr confout.gro; do
+  if cmp -s "$work/whole/$f" "$work/split/$f"; then ok "$f identical to the uninterrupted run's"; else fail "$f differs"; fi
+done
+if diff <(grep -v -e wall_seconds -e ns_per_day "$work/whole/summary.json") \
+        <(grep -v -e wall_seconds -e ns_per_day "$work/split/summary.json") > /dev/null; then
+  ok "summary.json identical but for wall time"
+else
+  fail "summary.json differs"; diff "$work/whole/summary.json" "$work/split/summary.json"
+fi
+ls "$work/split"/*.partial > /dev/null 2>&1 && fail "partial files left after the continued run finished"
+
+out=$("$vimd" run "$work/run.toml" --continue "$work/split" 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"nothing to continue"* ]] && ok "a finished run is not continued" || fail "continuing a finished run: exit $rc: $out"
+out=$("$vimd" run "$work/run.toml" --out "$work/split" --steps 10 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"already holds a finished run"* ]] && ok "a finished run is not overwritten" || fail "overwriting: exit $rc: $out"
+"$vimd" run "$work/run.toml" --out "$work/split" --steps 10 --overwrite > /dev/null 2>&1 && ok "--overwrite replaces it" || fail "--overwrite"
+
+echo "$failures failed"
+[[ $failures -eq 0 ]]

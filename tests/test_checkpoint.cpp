@@ -1,0 +1,226 @@
+// Stop and continue (issue 10): a run stopped at some step and continued from its state.cpt writes
+// exactly what the uninterrupted run writes, bit for bit, for RATTLE, SHAKE, the variational
+// integrator, RATTLE with the v-rescale thermostat and the minimiser, with 1 and 2 threads, on
+// SPC/E water216 (the neighbour list is rebuilt every few steps, so its build positions must be
+// part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint)
+// and refused checkpoints of another run.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+
+#include "engine/checkpoint.hpp"
+#include "engine/errors.hpp"
+#include "engine/input.hpp"
+#include "engine/observers.hpp"
+#include "engine/simulation.hpp"
+#include "engine/stop.hpp"
+#include "forcefields/registry.hpp"
+#include "integrators/registry.hpp"
+
+namespace vimd {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr long kSteps = 24;
+
+// What one process builds from the inputs: everything fresh, as after a restart.
+struct Engine {
+  RunInput input;
+  std::unique_ptr<ForceField> field;
+  Constraints constraints;
+  Eigen::VectorXd inverse_mass;
+  std::unique_ptr<Integrator> integrator;
+  std::unique_ptr<Problem> problem;
+  std::unique_ptr<Simulation> simulation;
+
+  Engine(const std::string& type, const fs::path& dir, long checkpoint_every) {
+    input = read_run_input(fs::path(VIMD_SOURCE_DIR) / "inputs" / "water216" / "run.toml");
+    input.config.integrator.type = type;
+    if (type == "rattle_vrescale") {  // the thermostat's random stream and work are carried
+      input.config.integrator.type = "rattle";
+      input.config.integrator.thermostat = "v-rescale";
+      input.config.integrator.temperature = 300.0;
+    }
+    field = make_force_field(input.system, input.config.forcefield);
+    constraints = Constraints(input.system.constraints, input.system.n_atoms(), input.system.box);
+    inverse_mass = input.system.mass.cwiseInverse();
+    integrator = make_integrator(input.config.integrator);
+    problem = std::make_unique<Problem>(Problem{input.system, *field, constraints, inverse_mass});
+    simulation = std::make_unique<Simulation>(*problem, *integrator, input.config.integrator.dt);
+    simulation->add_observer(std::make_unique<EnergyWriter>(dir, 1));
+    simulation->add_observer(std::make_unique<TrajectoryWriter>(dir, 5));
+    simulation->add_observer(std::make_unique<FinalStructureWriter>(dir));
+    simulation->add_observer(std::make_unique<SummaryReporter>(dir, 1, sink()));
+    simulation->set_checkpoints({dir / "state.cpt", checkpoint_every, 900.0, {{"atoms", "648"}, {"type", type}}});
+  }
+  static std::FILE* sink() {
+    static std::FILE* f = std::tmpfile();
+    return f;
+  }
+};
+
+// Asks the run to stop after `step` as SIGTERM would, or throws there (a crash).
+class Interrupt : public Observer {
+ public:
+  Interrupt(long step, bool crash) : step_(step), crash_(crash) {}
+  long every() const override { return 1; }
+  bool needs_sample() const override { return false; }
+  void observe(const RunInfo&, const State& state, const Sample&) override {
+    if (state.step != step_) return;
+    if (crash_) throw std::runtime_error("simulated crash");
+    request_stop(SIGTERM);
+  }
+
+ private:
+  long step_;
+  bool crash_;
+};
+
+std::string slurp(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// summary.json without its wall-time fields (the only ones that may differ).
+std::string deterministic_summary(const fs::path& file) {
+  std::istringstream in(slurp(file));
+  std::string line, kept;
+  while (std::getline(in, line))
+    if (line.find("wall_seconds") == std::string::npos && line.find("ns_per_day") == std::string::npos)
+      kept += line + "\n";
+  return kept;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("vimd_test_checkpoint_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+void expect_same_outputs(const fs::path& a, const fs::path& b, const std::string& what) {
+  for (const char* name : {"energy.csv", "energy.xvg", "traj.trr", "confout.gro"}) {
+    ASSERT_TRUE(fs::exists(b / name)) << what << ": " << name;
+    const std::string x = slurp(a / name), y = slurp(b / name);
+    EXPECT_EQ(x.size(), y.size()) << what << ": " << name;
+    EXPECT_TRUE(x == y) << what << ": " << name << " differs";
+  }
+  EXPECT_EQ(deterministic_summary(a / "summary.json"), deterministic_summary(b / "summary.json")) << what;
+  EXPECT_EQ(slurp(a / "energy.csv").find("nan,"), std::string::npos);
+}
+
+class StopAndContinue : public ::testing::TestWithParam<std::tuple<std::string, int>> {};
+
+TEST_P(StopAndContinue, IsBitIdenticalToTheUninterruptedRun) {
+  const auto& [type, threads] = GetParam();
+  const int saved_threads = omp_get_max_threads();
+  omp_set_num_threads(threads);
+  const std::string tag = type + "_" + std::to_string(threads);
+
+  const fs::path whole = fresh_dir(tag + "_whole");
+  {
+    Engine e(type, whole, 0);
+    EXPECT_EQ(e.simulation->run(e.input.state, kSteps).stop_signal, 0);
+  }
+
+  const fs::path split = fresh_dir(tag + "_split");
+  const long stop_at = 11;
+  {
+    Engine e(type, split, 0);
+    e.simulation->add_observer(std::make_unique<Interrupt>(stop_at, false));
+    const RunTotals totals = e.simulation->run(e.input.state, kSteps);
+    request_stop(0);
+    EXPECT_EQ(totals.stop_signal, SIGTERM);
+    EXPECT_EQ(e.input.state.step, stop_at);
+    EXPECT_FALSE(fs::exists(split / "energy.csv"));  // outputs stay partial, resumable
+    EXPECT_TRUE(fs::exists(split / "energy.csv.partial"));
+    EXPECT_TRUE(fs::exists(split / "state.cpt"));
+  }
+  {
+    Engine e(type, split, 0);
+    e.simulation->add_observer(std::make_unique<Interrupt>(stop_at, false));  // same observers, same order
+    const Checkpoint cp = read_checkpoint(split / "state.cpt");
+    EXPECT_EQ(cp.state.step, stop_at);
+    EXPECT_EQ(e.simulation->resume(cp, kSteps, e.input.state).stop_signal, 0);
+  }
+  expect_same_outputs(whole, split, tag);
+  omp_set_num_threads(saved_threads);
+}
+
+INSTANTIATE_TEST_SUITE_P(Integrators, StopAndContinue,
+                         ::testing::Combine(::testing::Values("rattle", "shake", "vi", "rattle_vrescale", "minimize"), ::testing::Values(1, 2)),
+                         [](const auto& info) {
+                           return std::get<0>(info.param) + "_" + std::to_string(std::get<1>(info.param)) + "threads";
+                         });
+
+// A crash after the last checkpoint: the outputs ran on past it; continuing truncates them back
+// to the checkpoint and writes those steps again.
+TEST(StopAndContinue, AfterACrashBetweenCheckpoints) {
+  const fs::path whole = fresh_dir("crash_whole");
+  {
+    Engine e("vi", whole, 0);
+    e.simulation->run(e.input.state, kSteps);
+  }
+  const fs::path split = fresh_dir("crash_split");
+  {
+    Engine e("vi", split, 8);
+    e.simulation->add_observer(std::make_unique<Interrupt>(13, true));
+    EXPECT_THROW(e.simulation->run(e.input.state, kSteps), std::runtime_error);
+  }
+  EXPECT_TRUE(fs::exists(split / "last_good.gro"));
+  {
+    Engine e("vi", split, 8);
+    e.simulation->add_observer(std::make_unique<Interrupt>(-1, true));  // the restarted process does not crash
+    const Checkpoint cp = read_checkpoint(split / "state.cpt");
+    EXPECT_EQ(cp.state.step, 8);
+    e.simulation->resume(cp, kSteps, e.input.state);
+  }
+  expect_same_outputs(whole, split, "crash");
+}
+
+TEST(Checkpoint, IdentityMismatchNamesWhatDiffers) {
+  const RunIdentity stored = {{"atoms", "648"}, {"dt", "0.002"}, {"[integrator] type", "vi"}};
+  EXPECT_NO_THROW(check_identity("state.cpt", stored, stored));
+  try {
+    check_identity("state.cpt", stored, {{"atoms", "648"}, {"dt", "0.001"}, {"[integrator] type", "rattle"}});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dt: 0.002 in the checkpoint, 0.001 here"), std::string::npos) << what;
+    EXPECT_NE(what.find("[integrator] type: vi in the checkpoint, rattle here"), std::string::npos) << what;
+    EXPECT_EQ(what.find("atoms"), std::string::npos) << what;
+  }
+}
+
+TEST(Checkpoint, DamagedFilesAreInputErrors) {
+  const fs::path dir = fresh_dir("damaged");
+  Checkpoint cp;
+  cp.identity = {{"atoms", "2"}};
+  cp.state.q = Coords::Random(3, 2);
+  cp.state.v = Coords::Random(3, 2);
+  cp.state.f = Coords::Random(3, 2);
+  cp.state.step = 7;
+  cp.integrator.put("x", 1.5);
+  write_checkpoint(dir / "state.cpt", cp);
+  EXPECT_FALSE(fs::exists(dir / "state.cpt.new"));
+  const Checkpoint back = read_checkpoint(dir / "state.cpt");
+  EXPECT_EQ(back.state.step, 7);
+  EXPECT_TRUE(back.state.q == cp.state.q);
+  EXPECT_EQ(back.integrator.number("x"), 1.5);
+
+  const std::string bytes = slurp(dir / "state.cpt");
+  for (std::size_t keep : {std::size_t{0}, std::size_t{5}, bytes.size() / 2, bytes.size() - 1}) {
+    std::ofstream(dir / "cut.cpt", std::ios::binary) << bytes.substr(0, keep);
+    EXPECT_THROW(read_checkpoint(dir / "cut.cpt"), InputError) << keep;
+  }
+  EXPECT_THROW(read_checkpoint(dir / "missing.cpt"), InputError);
+}
+
+}  // namespace
+}  // namespace vimd
