@@ -1,6 +1,7 @@
 #pragma once
 // Lennard-Jones pair potential with GROMACS's Verlet-scheme modifiers, V = 0 for r ≥ rc:
-//   V(r) = c12/r¹² − c6/r⁶ [none]; − (c12/rc¹² − c6/rc⁶) [potential-shift]; GROMACS force-switch / potential-switch.
+//   V(r) = c12/r¹² − c6/r⁶ [none]; − (c12/rc¹² − c6/rc⁶) [potential-shift]; GROMACS force-switch; potential-switch
+//   V·S(r − r_switch) with the switch of switch_function.hpp (smoothness 2 = GROMACS's).
 //   Units: r nm, c6 kJ/mol nm⁶, c12 kJ/mol nm¹², V kJ/mol.
 //
 // The kernels return, per pair at distance r (d = r_i − r_j):
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "engine/simd.hpp"
+#include "forcefields/switch_function.hpp"
 
 namespace vimd {
 
@@ -27,13 +29,18 @@ struct LjConstants {
   double shift6 = 0, shift12 = 0;
   // Force switch: −dV_p/dr = p r^-(p+1) + A_p x² + B_p x³, V_p = r⁻ᵖ − A_p/3 x³ − B_p/4 x⁴ − C_p, x = r − r_switch ≥ 0.
   double a6 = 0, b6 = 0, a12 = 0, b12 = 0;
-  // Potential switch: V → V·S(x), S = 1 + s3 x³ + s4 x⁴ + s5 x⁵ (S(0) = 1, S(rc − r_switch) = 0, S' = S'' = 0 at both
-  // ends).
-  double s3 = 0, s4 = 0, s5 = 0;
+  // Potential switch: V → V·S(r − r_switch).
+  SwitchFunction sw;
 };
 
-// r_switch is used by the switched modifiers only and must then satisfy 0 ≤ r_switch < cutoff.
-LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch);
+// r_switch is used by the switched modifiers only and must then satisfy 0 ≤ r_switch < cutoff;
+// smoothness (switch_smoothness) by potential-switch only.
+LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch, int smoothness = 2);
+
+// n such that the LJ pair potential is C^n over the whole range, r_switch and cut-off included
+// (−1: the energy itself jumps at the cut-off): none −1, potential-shift 0, force-switch 2,
+// potential-switch the switch smoothness.
+int lj_continuity(VdwModifier modifier, int smoothness);
 
 template <VdwModifier M, class T>
 inline void lj_energy_force(const LjConstants& k, T c6, T c12, T rinv2, T r, T& v, T& g) {
@@ -51,15 +58,9 @@ inline void lj_energy_force(const LjConstants& k, T c6, T c12, T rinv2, T r, T& 
         c6 * (k.shift6 - (k.a6 / 3 + k.b6 / 4.0 * x) * x3);
     g = (12.0 * rep - 6.0 * dis) * rinv2 + (c12 * (k.a12 + k.b12 * x) - c6 * (k.a6 + k.b6 * x)) * x2 * rinv;
   } else {  // potential_switch
-    const T x = positive_part(r - k.r_switch);
-    const T x2 = x * x;
-    const T rinv = rinv2 * r;
-    const T s = 1.0 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
-    const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
-    const T u = rep - dis;
-    const T minus_du_r = 12.0 * rep - 6.0 * dis;  // −r dV/dr
-    v = u * s;
-    g = minus_du_r * s * rinv2 - u * ds * rinv;
+    v = rep - dis;
+    g = (12.0 * rep - 6.0 * dis) * rinv2;
+    apply_switch_energy_force(k.sw, r, rinv2 * r, v, g);
   }
 }
 
@@ -82,20 +83,10 @@ inline void lj_hessian(const LjConstants& k, T c6, T c12, T rinv2, T r, T& a, T&
     b = ((168.0 * rep - 48.0 * dis) * rinv2 - c12 * ((2.0 * k.a12 + 3.0 * k.b12 * x) * x - poly12 * rinv) +
          c6 * ((2.0 * k.a6 + 3.0 * k.b6 * x) * x - poly6 * rinv)) *
         rinv2;
-  } else {  // potential_switch: φ = U S, φ' = U'S + U S', φ'' = U''S + 2U'S' + U S''
-    const T x = positive_part(r - k.r_switch);
-    const T x2 = x * x;
-    const T rinv = rinv2 * r;
-    const T s = 1.0 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
-    const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
-    const T dds = (6.0 * k.s3 + (12.0 * k.s4 + 20.0 * k.s5 * x) * x) * x;
-    const T u = rep - dis;
-    const T du = (6.0 * dis - 12.0 * rep) * rinv;      // U'
-    const T ddu = (156.0 * rep - 42.0 * dis) * rinv2;  // U''
-    const T dphi = du * s + u * ds;
-    const T ddphi = ddu * s + 2.0 * du * ds + u * dds;
-    a = dphi * rinv;
-    b = (ddphi - a) * rinv2;
+  } else {  // potential_switch
+    a = (6.0 * dis - 12.0 * rep) * rinv2;
+    b = (168.0 * rep - 48.0 * dis) * rinv2 * rinv2;
+    apply_switch_hessian(k.sw, rep - dis, r, rinv2 * r, a, b);
   }
 }
 

@@ -53,7 +53,7 @@ struct HalfData {
 // on the thread count (the Coulomb sum cancels strongly and would otherwise show it).
 // If inside_masks is not null, inside_masks[e] receives the bits of entry e's pairs that were
 // inside the cut-off.
-template <VdwModifier M, bool kCoulomb>
+template <VdwModifier M, bool kCoulomb, CoulombModifier C>
 void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
                   double* half_coulomb, std::uint32_t* inside_masks) {
   const SimdDouble one = simd_broadcast(1.0), zero{};
@@ -98,7 +98,7 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
         e_lj += select(inside, v, zero);
         if constexpr (kCoulomb) {
           SimdDouble vc, gc;
-          rf_energy_force(d.rf, hi.q[ii] * qj, rinv, r2s, vc, gc);
+          rf_energy_force<C>(d.rf, hi.q[ii] * qj, rinv, r2s, vc, gc);
           e_coulomb += select(inside, vc, zero);
           g += gc;
         }
@@ -130,7 +130,7 @@ void force_halves(const PairView& d, int h0, int h1, double* fx, double* fy, dou
 // masks[e] selects the pairs of entry e: the list's own masks, or the inside-cut-off masks that a
 // force evaluation at the same positions recorded (rows without such pairs are then skipped; the
 // skipped rows contribute exact zeros otherwise, so both give identical results).
-template <VdwModifier M, bool kCoulomb>
+template <VdwModifier M, bool kCoulomb, CoulombModifier C>
 void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
                     int h0, int h1, double* ox, double* oy, double* oz) {
   const SimdDouble one = simd_broadcast(1.0), zero{};
@@ -175,7 +175,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
         lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
         if constexpr (kCoulomb) {
           SimdDouble ac, bc;
-          rf_hessian(d.rf, hi.q[ii] * qj, rinv, ac, bc);
+          rf_hessian<C>(d.rf, hi.q[ii] * qj, rinv, r2s, ac, bc);
           a += ac;
           b += bc;
         }
@@ -233,9 +233,13 @@ void excluded_hessian(const PairView& d, const double* ux, const double* uy, con
     const Vec3& shift = d.shifts[pair.shift];
     const int i = pair.i_slot, j = pair.j_slot;
     const double dx = d.x[i] - d.x[j] - shift[0], dy = d.y[i] - d.y[j] - shift[1], dz = d.z[i] - d.z[j] - shift[2];
-    if (dx * dx + dy * dy + dz * dz >= d.cutoff2) continue;
-    const double a = rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j]);
-    const double hx = a * (ux[i] - ux[j]), hy = a * (uy[i] - uy[j]), hz = a * (uz[i] - uz[j]);
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    if (r2 >= d.cutoff2) continue;
+    double a, b;  // b ≠ 0 only where a switch acts
+    rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+    const double dux = ux[i] - ux[j], duy = uy[i] - uy[j], duz = uz[i] - uz[j];
+    const double bp = b * (dx * dux + dy * duy + dz * duz);
+    const double hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
     ox[i] += hx;
     oy[i] += hy;
     oz[i] += hz;
@@ -262,8 +266,9 @@ std::pair<int, int> half_block(const std::vector<int>& half_start, int t, int nt
 NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfig& config)
     : n_atoms_(system.n_atoms()),
       modifier_(parse_vdw_modifier(config.vdw_modifier)),
-      lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch)),
-      rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff)),
+      lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch, config.switch_smoothness)),
+      rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
+                              config.coulomb_modifier, config.coulomb_switch, config.switch_smoothness)),
       cutoff2_(config.cutoff * config.cutoff),
       n_types_(static_cast<int>(system.c6.rows())),
       charge_(system.charge),
@@ -367,17 +372,17 @@ namespace {
 template <bool kCoulomb>
 using ForceKernelFn = void (*)(const PairView&, int, int, double*, double*, double*, double*, double*, std::uint32_t*);
 
-template <bool kCoulomb>
+template <bool kCoulomb, CoulombModifier C>
 ForceKernelFn<kCoulomb> force_kernel(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return force_halves<VdwModifier::none, kCoulomb>;
+      return force_halves<VdwModifier::none, kCoulomb, C>;
     case VdwModifier::potential_shift:
-      return force_halves<VdwModifier::potential_shift, kCoulomb>;
+      return force_halves<VdwModifier::potential_shift, kCoulomb, C>;
     case VdwModifier::force_switch:
-      return force_halves<VdwModifier::force_switch, kCoulomb>;
+      return force_halves<VdwModifier::force_switch, kCoulomb, C>;
     case VdwModifier::potential_switch:
-      return force_halves<VdwModifier::potential_switch, kCoulomb>;
+      return force_halves<VdwModifier::potential_switch, kCoulomb, C>;
   }
   throw std::logic_error("unknown VdwModifier");
 }
@@ -385,17 +390,17 @@ ForceKernelFn<kCoulomb> force_kernel(VdwModifier m) {
 using HessianKernelFn = void (*)(const PairView&, const double*, const double*, const double*, const std::uint32_t*,
                                  int, int, double*, double*, double*);
 
-template <bool kCoulomb>
+template <bool kCoulomb, CoulombModifier C>
 HessianKernelFn hessian_kernel(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return hessian_halves<VdwModifier::none, kCoulomb>;
+      return hessian_halves<VdwModifier::none, kCoulomb, C>;
     case VdwModifier::potential_shift:
-      return hessian_halves<VdwModifier::potential_shift, kCoulomb>;
+      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C>;
     case VdwModifier::force_switch:
-      return hessian_halves<VdwModifier::force_switch, kCoulomb>;
+      return hessian_halves<VdwModifier::force_switch, kCoulomb, C>;
     case VdwModifier::potential_switch:
-      return hessian_halves<VdwModifier::potential_switch, kCoulomb>;
+      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C>;
   }
   throw std::logic_error("unknown VdwModifier");
 }
@@ -423,7 +428,10 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
                       lj_,
                       rf_};
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const auto pair_kernel = coulomb ? force_kernel<true>(modifier_) : force_kernel<false>(modifier_);
+  const auto pair_kernel = !coulomb ? force_kernel<false, CoulombModifier::none>(modifier_)
+                           : rf_.modifier == CoulombModifier::none
+                               ? force_kernel<true, CoulombModifier::none>(modifier_)
+                               : force_kernel<true, CoulombModifier::potential_switch>(modifier_);
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();
   const int n_halves = list_.n_halves();
@@ -469,7 +477,10 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
                       lj_,
                       rf_};
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const auto pair_kernel = coulomb ? hessian_kernel<true>(modifier_) : hessian_kernel<false>(modifier_);
+  const auto pair_kernel = !coulomb ? hessian_kernel<false, CoulombModifier::none>(modifier_)
+                           : rf_.modifier == CoulombModifier::none
+                               ? hessian_kernel<true, CoulombModifier::none>(modifier_)
+                               : hessian_kernel<true, CoulombModifier::potential_switch>(modifier_);
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
