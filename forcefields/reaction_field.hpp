@@ -17,8 +17,8 @@
 // at rc unless eps_rf = ∞, and its derivative jumps always. The excluded-pair term is switched the
 // same way, qq (k_rf r² − c_rf)·S: it is the reaction-field part of a pair whose bare 1/r is
 // excluded, so it takes the same factor as the included pairs' reaction field, and unswitched it
-// would jump by −qq/rc at the cut-off for an excluded pair that reaches it (only long molecules;
-// water's excluded pairs stay far inside r_switch, where S = 1, so water is unchanged there).
+// would jump by −qq/rc at the cut-off for an excluded pair that reaches it (possible only in long
+// molecules; water's excluded pairs stay far inside r_switch, where S = 1, so water is unchanged).
 // The self term is that pair term's r → 0 limit, where S = 1: unchanged.
 //
 // The kernels (reaction_field-inl.h) use the same convention as lennard_jones.hpp:
