@@ -241,7 +241,6 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   // The start is on TQ already (the engine constrains it, the same for every integrator): take it as it is.
   w.q = state.q;
   w.v = state.v;
-  w.mass_q.set_point(w.q);
   forward_segments(w, w.q, w.v, state.step);
 
   // p⁺(w₀), p⁻(w₀) with w₀ fixed: the same residual, p̄ replaced by the unknown p⁻ (spec §6, init).
