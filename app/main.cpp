@@ -18,7 +18,10 @@
 #include "engine/observers.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
+#include "forcefields/lennard_jones.hpp"
 #include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/reaction_field.hpp"
+#include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
 namespace fs = std::filesystem;
@@ -260,6 +263,39 @@ int energy_command(const fs::path& config_file, bool json) {
   return 0;
 }
 
+// How smooth the pair interactions are across the cut-off (and switch): a jump in the n-th
+// derivative limits the order a variational integrator reaches when pairs cross it.
+std::string describe_smoothness(const ForceFieldConfig& ff) {
+  auto c_n = [](int n) { return n < 0 ? std::string("discontinuous") : "C^" + std::to_string(n); };
+  char buf[160];
+  const VdwModifier vdw = parse_vdw_modifier(ff.vdw_modifier);
+  std::string lj = "LJ " + c_n(lj_continuity(vdw, ff.switch_smoothness));
+  if (vdw == VdwModifier::none) lj += " (the energy jumps at the cut-off)";
+  if (vdw == VdwModifier::potential_shift) lj += " (the force jumps at the cut-off)";
+  if (vdw == VdwModifier::force_switch) {
+    std::snprintf(buf, sizeof buf, " (force-switch %g-%g nm)", ff.vdw_switch, ff.cutoff);
+    lj += buf;
+  }
+  if (vdw == VdwModifier::potential_switch) {
+    std::snprintf(buf, sizeof buf, " (potential-switch %g-%g nm, switch_smoothness %d)", ff.vdw_switch, ff.cutoff,
+                  ff.switch_smoothness);
+    lj += buf;
+  }
+  const ReactionField rf = make_reaction_field(ff.coulomb, ff.epsilon_r, ff.epsilon_rf, ff.cutoff, ff.coulomb_modifier,
+                                               ff.coulomb_switch, ff.switch_smoothness);
+  if (rf.kind == CoulombKind::none) return lj + "; no Coulomb";
+  const int n = coulomb_continuity(rf, ff.cutoff);
+  std::string coulomb = "; Coulomb " + c_n(n);
+  if (rf.modifier == CoulombModifier::potential_switch) {
+    std::snprintf(buf, sizeof buf, " (potential-switch %g-%g nm, switch_smoothness %d; C^%d at the cut-off)",
+                  ff.coulomb_switch, ff.cutoff, n, n + 1);
+    coulomb += buf;
+  } else {
+    coulomb += n == 0 ? " (the force jumps at the cut-off)" : " (eps_rf = inf: the force's slope jumps at the cut-off)";
+  }
+  return lj + coulomb;
+}
+
 int check_command(const fs::path& config_file) {
   std::unique_ptr<Model> model = load_and_warn(config_file);
   const Model& m = *model;
@@ -302,6 +338,7 @@ int check_command(const fs::path& config_file) {
               c.forcefield.cutoff, c.forcefield.vdw_modifier.c_str(), c.forcefield.vdw_switch, c.forcefield.coulomb.c_str(),
               c.forcefield.epsilon_rf, c.forcefield.neighbor_skin);
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
+  std::printf("\nsmoothness  %s", describe_smoothness(c.forcefield).c_str());
   std::unique_ptr<Integrator> integrator = make_integrator(c.integrator);
   std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.integrator.dt,
               c.integrator.steps, c.integrator.steps * c.integrator.dt);

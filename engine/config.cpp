@@ -22,7 +22,8 @@ const std::map<std::string, std::vector<std::string>>& schema() {
   static const std::map<std::string, std::vector<std::string>> tables = {
       {"system", {"structure", "topology"}},
       {"forcefield",
-       {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "epsilon_r", "epsilon_rf", "neighbor_skin"}},
+       {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "coulomb_modifier", "coulomb_switch", "switch_smoothness",
+        "epsilon_r", "epsilon_rf", "neighbor_skin"}},
       {"integrator",
        {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
@@ -36,6 +37,7 @@ const std::vector<std::string> kIntegratorTypes = {"verlet", "shake", "rattle", 
 const std::vector<std::string> kThermostats = {"none", "v-rescale"};
 const std::vector<std::string> kVdwModifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
 const std::vector<std::string> kCoulombTypes = {"reaction-field", "cutoff", "none"};
+const std::vector<std::string> kCoulombModifiers = {"none", "potential-switch"};
 const std::vector<std::string> kProjections = {"euclidean", "mass"};
 const std::vector<std::string> kAccelerations = {"none", "anderson"};
 
@@ -372,6 +374,28 @@ class ConfigReader {
     if (const auto* n = t.get("epsilon_rf")) {
       ff.epsilon_rf = number(*n, "epsilon_rf");
       require(ff.epsilon_rf >= 0, *n, "epsilon_rf must not be negative (0 means infinity)");
+    }
+    if (const auto* n = t.get("coulomb_modifier"))
+      ff.coulomb_modifier = choice(*n, "coulomb_modifier", kCoulombModifiers);
+    if (const auto* n = t.get("coulomb_switch")) {
+      ff.coulomb_switch = number(*n, "coulomb_switch");
+      require(ff.coulomb_switch >= 0, *n, "coulomb_switch must not be negative (nm)");
+    }
+    if (ff.coulomb_modifier == "potential-switch") {
+      const toml::node& modifier = *t.get("coulomb_modifier");
+      require(ff.coulomb != "none", modifier, "coulomb_modifier = \"potential-switch\" needs coulomb = \"reaction-field\" or \"cutoff\"");
+      require(t.get("coulomb_switch") != nullptr, modifier,
+              "coulomb_modifier = \"potential-switch\" needs coulomb_switch (nm, where the switch starts)");
+      require(ff.coulomb_switch < ff.cutoff, *t.get("coulomb_switch"),
+              "coulomb_switch (" + format_number(ff.coulomb_switch) + " nm) must be smaller than cutoff (" +
+                  format_number(ff.cutoff) + " nm)");
+    }
+    if (const auto* n = t.get("switch_smoothness")) {
+      const long k = integer(*n, "switch_smoothness");
+      require(k >= 2 && k <= 6, *n,
+              "switch_smoothness must be between 2 and 6 (continuous derivatives of a potential-switch pair "
+              "potential; 2 is GROMACS's), got " + std::to_string(k));
+      ff.switch_smoothness = static_cast<int>(k);
     }
     if (const auto* n = t.get("neighbor_skin")) {
       ff.neighbor_skin = number(*n, "neighbor_skin");

@@ -17,6 +17,9 @@ struct ForceFieldConfig {
   std::string vdw_modifier = "potential-shift"; // "none" | "potential-shift" | "force-switch" | "potential-switch"
   double vdw_switch = 0.0;                      // nm, start of the switch region
   std::string coulomb = "reaction-field";       // "reaction-field" | "cutoff" | "none"
+  std::string coulomb_modifier = "none";        // "none" | "potential-switch"
+  double coulomb_switch = 0.0;                  // nm, start of the Coulomb switch region
+  int switch_smoothness = 2;                    // k: potential-switch pair potentials are C^k (2 = GROMACS)
   double epsilon_r = 1.0;
   double epsilon_rf = 0.0;                      // 0 means infinity
   double neighbor_skin = 0.1;                   // nm, Verlet buffer

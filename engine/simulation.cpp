@@ -80,7 +80,8 @@ void Simulation::check_sane(const State& state) const {
     if (++count <= 5) atoms += std::string(atoms.empty() ? "" : ", ") + atom_label(system, i) + " " + what;
   }
   if (count == 0 && std::isfinite(state.potential)) return;
-  std::string message = "the system blew up at step " + std::to_string(state.step) + ": ";
+  std::string message = state.step == start_step_ ? "the start state is unusable: "
+                                                  : "the system blew up at step " + std::to_string(state.step) + ": ";
   if (count == 0)
     message += "the potential energy is not finite";
   else
@@ -120,6 +121,7 @@ RunTotals Simulation::run(State& state, long steps) {
     constrain_start(problem_, state);
     integrator_.init(problem_, state);
     initialized_ = true;
+    start_step_ = state.step;
   }
   check_sane(state);
   start_time_ = state.time;
@@ -143,6 +145,7 @@ RunTotals Simulation::resume(const Checkpoint& cp, long last_step, State& state)
   integrator_.restore(problem_, state, cp.integrator);
   initialized_ = true;
   start_time_ = cp.totals.number("start_time");
+  start_step_ = cp.first_step;
   // Only the work from here on counts on top of the checkpoint's totals.
   evaluations0_ = problem_.force_field.force_evaluations();
   hessians0_ = problem_.force_field.hessian_evaluations();

@@ -112,6 +112,7 @@ class Simulation {
   // Work counters of the force field when this process's counting began.
   long evaluations0_ = 0, hessians0_ = 0, rebuilds0_ = 0;
   std::chrono::steady_clock::time_point wall0_;
+  long start_step_ = 0;    // the run's first step
   double start_time_ = 0;  // ps, at the run's first step: time = start_time + (step − first_step) dt
 };
 

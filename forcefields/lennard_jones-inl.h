@@ -9,6 +9,7 @@
 
 #include "forcefields/lennard_jones.hpp"
 #include "forcefields/simd-inl.h"
+#include "forcefields/switch_function-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace vimd {
@@ -30,15 +31,9 @@ inline void lj_energy_force(const LjConstants& k, T c6, T c12, T rinv2, T r, T& 
         c6 * (k.shift6 - (k.a6 / 3 + k.b6 / 4.0 * x) * x3);
     g = (12.0 * rep - 6.0 * dis) * rinv2 + (c12 * (k.a12 + k.b12 * x) - c6 * (k.a6 + k.b6 * x)) * x2 * rinv;
   } else {  // potential_switch
-    const T x = positive_part(r - k.r_switch);
-    const T x2 = x * x;
-    const T rinv = rinv2 * r;
-    const T s = 1.0 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
-    const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
-    const T u = rep - dis;
-    const T minus_du_r = 12.0 * rep - 6.0 * dis;  // −r dV/dr
-    v = u * s;
-    g = minus_du_r * s * rinv2 - u * ds * rinv;
+    v = rep - dis;
+    g = (12.0 * rep - 6.0 * dis) * rinv2;
+    apply_switch_energy_force(k.sw, r, rinv2 * r, v, g);
   }
 }
 
@@ -61,20 +56,10 @@ inline void lj_hessian(const LjConstants& k, T c6, T c12, T rinv2, T r, T& a, T&
     b = ((168.0 * rep - 48.0 * dis) * rinv2 - c12 * ((2.0 * k.a12 + 3.0 * k.b12 * x) * x - poly12 * rinv) +
          c6 * ((2.0 * k.a6 + 3.0 * k.b6 * x) * x - poly6 * rinv)) *
         rinv2;
-  } else {  // potential_switch: φ = U S, φ' = U'S + U S', φ'' = U''S + 2U'S' + U S''
-    const T x = positive_part(r - k.r_switch);
-    const T x2 = x * x;
-    const T rinv = rinv2 * r;
-    const T s = 1.0 + (k.s3 + (k.s4 + k.s5 * x) * x) * x2 * x;
-    const T ds = (3.0 * k.s3 + (4.0 * k.s4 + 5.0 * k.s5 * x) * x) * x2;
-    const T dds = (6.0 * k.s3 + (12.0 * k.s4 + 20.0 * k.s5 * x) * x) * x;
-    const T u = rep - dis;
-    const T du = (6.0 * dis - 12.0 * rep) * rinv;      // U'
-    const T ddu = (156.0 * rep - 42.0 * dis) * rinv2;  // U''
-    const T dphi = du * s + u * ds;
-    const T ddphi = ddu * s + 2.0 * du * ds + u * dds;
-    a = dphi * rinv;
-    b = (ddphi - a) * rinv2;
+  } else {  // potential_switch
+    a = (6.0 * dis - 12.0 * rep) * rinv2;
+    b = (168.0 * rep - 48.0 * dis) * rinv2 * rinv2;
+    apply_switch_hessian(k.sw, rep - dis, r, rinv2 * r, a, b);
   }
 }
 

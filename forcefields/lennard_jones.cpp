@@ -17,7 +17,7 @@ VdwModifier parse_vdw_modifier(const std::string& name) {
       "unknown vdw_modifier '" + name + "' (expected none, potential-shift, force-switch or potential-switch)");
 }
 
-LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch) {
+LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch, int smoothness) {
   LjConstants k;
   k.cutoff = cutoff;
   const double rc = cutoff;
@@ -39,9 +39,7 @@ LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_swit
       k.r_switch = r_switch;
       const double w = rc - r_switch;
       if (modifier == VdwModifier::potential_switch) {
-        k.s3 = -10 / std::pow(w, 3);
-        k.s4 = 15 / std::pow(w, 4);
-        k.s5 = -6 / std::pow(w, 5);
+        k.sw = make_switch_function(r_switch, rc, smoothness, "vdw_switch");
       } else {
         // A = −p((p+4)rc − (p+1)r1)/(rc^(p+2)(rc−r1)²), B = p((p+3)rc − (p+1)r1)/(rc^(p+2)(rc−r1)³),
         // C = rc^-p − A/3 (rc−r1)³ − B/4 (rc−r1)⁴, so that force and potential vanish at rc.
@@ -57,6 +55,20 @@ LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_swit
     }
   }
   return k;
+}
+
+int lj_continuity(VdwModifier modifier, int smoothness) {
+  switch (modifier) {
+    case VdwModifier::none:
+      return -1;
+    case VdwModifier::potential_shift:
+      return 0;
+    case VdwModifier::force_switch:  // the force and its slope vanish at rc; its curvature jumps at r_switch
+      return 2;
+    case VdwModifier::potential_switch:
+      return smoothness;
+  }
+  return -1;
 }
 
 }  // namespace vimd

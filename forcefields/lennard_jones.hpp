@@ -1,6 +1,7 @@
 #pragma once
 // Lennard-Jones pair potential with GROMACS's Verlet-scheme modifiers, V = 0 for r ≥ rc:
-//   V(r) = c12/r¹² − c6/r⁶ [none]; − (c12/rc¹² − c6/rc⁶) [potential-shift]; GROMACS force-switch / potential-switch.
+//   V(r) = c12/r¹² − c6/r⁶ [none]; − (c12/rc¹² − c6/rc⁶) [potential-shift]; GROMACS force-switch; potential-switch
+//   V·S(r − r_switch) with the switch of switch_function.hpp (smoothness 2 = GROMACS's).
 //   Units: r nm, c6 kJ/mol nm⁶, c12 kJ/mol nm¹², V kJ/mol.
 //
 // The kernels (lennard_jones-inl.h) return, per pair at distance r (d = r_i − r_j):
@@ -10,6 +11,7 @@
 // (simd-inl.h) for the pair loop, which evaluates one SIMD vector of j atoms at once.
 #include <string>
 
+#include "forcefields/switch_function.hpp"
 
 namespace vimd {
 
@@ -26,12 +28,17 @@ struct LjConstants {
   double shift6 = 0, shift12 = 0;
   // Force switch: −dV_p/dr = p r^-(p+1) + A_p x² + B_p x³, V_p = r⁻ᵖ − A_p/3 x³ − B_p/4 x⁴ − C_p, x = r − r_switch ≥ 0.
   double a6 = 0, b6 = 0, a12 = 0, b12 = 0;
-  // Potential switch: V → V·S(x), S = 1 + s3 x³ + s4 x⁴ + s5 x⁵ (S(0) = 1, S(rc − r_switch) = 0, S' = S'' = 0 at both
-  // ends).
-  double s3 = 0, s4 = 0, s5 = 0;
+  // Potential switch: V → V·S(r − r_switch).
+  SwitchFunction sw;
 };
 
-// r_switch is used by the switched modifiers only and must then satisfy 0 ≤ r_switch < cutoff.
-LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch);
+// r_switch is used by the switched modifiers only and must then satisfy 0 ≤ r_switch < cutoff;
+// smoothness (switch_smoothness) by potential-switch only.
+LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch, int smoothness = 2);
+
+// n such that the LJ pair potential is C^n over the whole range, r_switch and cut-off included
+// (−1: the energy itself jumps at the cut-off): none −1, potential-shift 0, force-switch 2,
+// potential-switch the switch smoothness.
+int lj_continuity(VdwModifier modifier, int smoothness);
 
 }  // namespace vimd

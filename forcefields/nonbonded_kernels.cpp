@@ -37,7 +37,7 @@ HWY_INLINE void load_half(const PairView& d, int h, HalfData& hi) {
   }
 }
 
-template <VdwModifier M, bool kCoulomb>
+template <VdwModifier M, bool kCoulomb, CoulombModifier C>
 void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy, double* fz,
                   double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
@@ -78,7 +78,7 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
           e_lj += keep(inside, v);
           if constexpr (kCoulomb) {
             SimdDouble vc, gc;
-            rf_energy_force(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
+            rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
             e_coulomb += keep(inside, vc);
             g += gc;
           }
@@ -110,7 +110,7 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
 
 // Per pair a u_ij + b (d·u_ij) d. Skipped rows contribute exact zeros, so the list's masks and a
 // force pass's inside masks give identical results.
-template <VdwModifier M, bool kCoulomb>
+template <VdwModifier M, bool kCoulomb, CoulombModifier C>
 void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
                     int h0, int h1, double* ox, double* oy, double* oz) {
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
@@ -154,7 +154,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
           if constexpr (kCoulomb) {
             SimdDouble ac, bc;
-            rf_hessian(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, ac, bc);
+            rf_hessian<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, ac, bc);
             a += ac;
             b += bc;
           }
@@ -210,32 +210,32 @@ void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks)
   }
 }
 
-template <bool kCoulomb>
+template <bool kCoulomb, CoulombModifier C>
 ForceKernel force_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return force_halves<VdwModifier::none, kCoulomb>;
+      return force_halves<VdwModifier::none, kCoulomb, C>;
     case VdwModifier::potential_shift:
-      return force_halves<VdwModifier::potential_shift, kCoulomb>;
+      return force_halves<VdwModifier::potential_shift, kCoulomb, C>;
     case VdwModifier::force_switch:
-      return force_halves<VdwModifier::force_switch, kCoulomb>;
+      return force_halves<VdwModifier::force_switch, kCoulomb, C>;
     case VdwModifier::potential_switch:
-      return force_halves<VdwModifier::potential_switch, kCoulomb>;
+      return force_halves<VdwModifier::potential_switch, kCoulomb, C>;
   }
   return nullptr;
 }
 
-template <bool kCoulomb>
+template <bool kCoulomb, CoulombModifier C>
 HessianKernel hessian_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return hessian_halves<VdwModifier::none, kCoulomb>;
+      return hessian_halves<VdwModifier::none, kCoulomb, C>;
     case VdwModifier::potential_shift:
-      return hessian_halves<VdwModifier::potential_shift, kCoulomb>;
+      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C>;
     case VdwModifier::force_switch:
-      return hessian_halves<VdwModifier::force_switch, kCoulomb>;
+      return hessian_halves<VdwModifier::force_switch, kCoulomb, C>;
     case VdwModifier::potential_switch:
-      return hessian_halves<VdwModifier::potential_switch, kCoulomb>;
+      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C>;
   }
   return nullptr;
 }
@@ -243,11 +243,16 @@ HessianKernel hessian_kernel_of(VdwModifier m) {
 }  // namespace
 
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
-ForceKernel ForceKernelFor(VdwModifier m, bool coulomb) {
-  return coulomb ? force_kernel_of<true>(m) : force_kernel_of<false>(m);
+// Without Coulomb the Coulomb modifier is irrelevant: one instantiation.
+ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c) {
+  if (!coulomb) return force_kernel_of<false, CoulombModifier::none>(m);
+  return c == CoulombModifier::potential_switch ? force_kernel_of<true, CoulombModifier::potential_switch>(m)
+                                                : force_kernel_of<true, CoulombModifier::none>(m);
 }
-HessianKernel HessianKernelFor(VdwModifier m, bool coulomb) {
-  return coulomb ? hessian_kernel_of<true>(m) : hessian_kernel_of<false>(m);
+HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c) {
+  if (!coulomb) return hessian_kernel_of<false, CoulombModifier::none>(m);
+  return c == CoulombModifier::potential_switch ? hessian_kernel_of<true, CoulombModifier::potential_switch>(m)
+                                                : hessian_kernel_of<true, CoulombModifier::none>(m);
 }
 MaskKernel MaskKernelFor() { return mask_halves; }
 std::int64_t Target() { return HWY_TARGET; }
@@ -272,14 +277,14 @@ HWY_EXPORT(Lanes);
 
 namespace simd {
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb) {
-  const ForceKernel kernel = HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb);
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier) {
+  const ForceKernel kernel = HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier);
   if (!kernel) throw std::logic_error("unknown VdwModifier");
   return kernel;
 }
 
-HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb) {
-  const HessianKernel kernel = HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb);
+HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier) {
+  const HessianKernel kernel = HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier);
   if (!kernel) throw std::logic_error("unknown VdwModifier");
   return kernel;
 }

@@ -47,9 +47,9 @@ using HessianKernel = void (*)(const PairView&, const double* ux, const double* 
 
 namespace simd {
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb);
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier);
 MaskKernel mask_kernel();
-HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb);
+HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
 std::string target_name();

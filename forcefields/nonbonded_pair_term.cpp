@@ -9,10 +9,15 @@
 #include <stdexcept>
 
 #include "engine/errors.hpp"
+#include "forcefields/reaction_field-inl.h"
 
 namespace vimd {
 
 namespace {
+
+// The scalar excluded-pair terms, from the build's static SIMD target.
+using HWY_NAMESPACE::rf_excluded_energy_force;
+using HWY_NAMESPACE::rf_excluded_hessian;
 
 // Reaction-field terms of the excluded pairs [p0, p1) (GROMACS keeps k_rf r² − c_rf for them).
 double excluded_forces(const PairView& d, const NeighborList::ExcludedPair* excluded, double cutoff2, int p0, int p1,
@@ -45,9 +50,13 @@ void excluded_hessian(const PairView& d, const NeighborList::ExcludedPair* exclu
     const Vec3& shift = d.shifts[pair.shift];
     const int i = pair.i_slot, j = pair.j_slot;
     const double dx = d.x[i] - d.x[j] - shift[0], dy = d.y[i] - d.y[j] - shift[1], dz = d.z[i] - d.z[j] - shift[2];
-    if (dx * dx + dy * dy + dz * dz >= cutoff2) continue;
-    const double a = rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j]);
-    const double hx = a * (ux[i] - ux[j]), hy = a * (uy[i] - uy[j]), hz = a * (uz[i] - uz[j]);
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    if (r2 >= cutoff2) continue;
+    double a, b;  // b ≠ 0 only where a switch acts
+    rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+    const double dux = ux[i] - ux[j], duy = uy[i] - uy[j], duz = uz[i] - uz[j];
+    const double bp = b * (dx * dux + dy * duy + dz * duz);
+    const double hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
     ox[i] += hx;
     oy[i] += hy;
     oz[i] += hz;
@@ -74,8 +83,9 @@ std::pair<int, int> half_block(const std::vector<int>& half_start, int t, int nt
 NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfig& config)
     : n_atoms_(system.n_atoms()),
       modifier_(parse_vdw_modifier(config.vdw_modifier)),
-      lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch)),
-      rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff)),
+      lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch, config.switch_smoothness)),
+      rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
+                              config.coulomb_modifier, config.coulomb_switch, config.switch_smoothness)),
       cutoff2_(config.cutoff * config.cutoff),
       n_types_(static_cast<int>(system.c6.rows())),
       charge_(system.charge),
@@ -235,7 +245,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   prepare(q);
   const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb);
+  const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb, rf_.modifier);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();
@@ -269,7 +279,7 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   prepare(q);
   const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb);
+  const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();

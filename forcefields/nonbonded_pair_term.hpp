@@ -3,6 +3,7 @@
 // Lennard-Jones kernel (lennard_jones.hpp) and the reaction-field Coulomb kernel (reaction_field.hpp)
 // with the SIMD kernels of the CPU's best target (nonbonded_kernels.hpp) for every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
 //   V = Σ_{i<j, not excluded, r<rc} [V_LJ(r) + V_RF(r)] + Σ_{excluded, r<rc} V_RF,excl(r) + Σ_i V_RF,self
+//   (V_RF and V_RF,excl times the switch S(r − coulomb_switch) with coulomb_modifier = potential-switch)
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
 // Threads: each thread takes a contiguous block of i-half-clusters (balanced by list entries)

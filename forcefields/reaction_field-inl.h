@@ -7,24 +7,50 @@
 #define VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_
 #endif
 
+#include <cmath>
+
 #include "forcefields/reaction_field.hpp"
 #include "forcefields/simd-inl.h"
+#include "forcefields/switch_function-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace vimd {
 namespace HWY_NAMESPACE {
 
-template <class T>
+template <CoulombModifier C, class T>
 inline void rf_energy_force(const ReactionField& rf, T qq, T rinv, T r2, T& v, T& g) {
   v = qq * (rinv + rf.k_rf * r2 - rf.c_rf);
   g = qq * (rinv * rinv * rinv - 2.0 * rf.k_rf);
+  if constexpr (C == CoulombModifier::potential_switch) apply_switch_energy_force(rf.sw, r2 * rinv, rinv, v, g);
 }
 
-template <class T>
-inline void rf_hessian(const ReactionField& rf, T qq, T rinv, T& a, T& b) {
+template <CoulombModifier C, class T>
+inline void rf_hessian(const ReactionField& rf, T qq, T rinv, T r2, T& a, T& b) {
   const T rinv3 = rinv * rinv * rinv;
   a = qq * (2.0 * rf.k_rf - rinv3);
   b = 3.0 * qq * rinv3 * rinv * rinv;
+  if constexpr (C == CoulombModifier::potential_switch)
+    apply_switch_hessian(rf.sw, qq * (rinv + rf.k_rf * r2 - rf.c_rf), r2 * rinv, rinv, a, b);
+}
+
+// Excluded pair inside the cut-off: φ = qq (k_rf r² − c_rf), times S when switched (scalar code:
+// few pairs, so the modifier is a run-time test).
+inline void rf_excluded_energy_force(const ReactionField& rf, double qq, double r2, double& v, double& g) {
+  v = qq * (rf.k_rf * r2 - rf.c_rf);
+  g = -2 * qq * rf.k_rf;
+  if (rf.modifier == CoulombModifier::potential_switch) {
+    const double r = std::sqrt(r2);
+    apply_switch_energy_force(rf.sw, r, 1 / r, v, g);
+  }
+}
+
+inline void rf_excluded_hessian(const ReactionField& rf, double qq, double r2, double& a, double& b) {
+  a = 2 * qq * rf.k_rf;
+  b = 0;
+  if (rf.modifier == CoulombModifier::potential_switch) {
+    const double r = std::sqrt(r2);
+    apply_switch_hessian(rf.sw, qq * (rf.k_rf * r2 - rf.c_rf), r, 1 / r, a, b);
+  }
 }
 
 }  // namespace HWY_NAMESPACE

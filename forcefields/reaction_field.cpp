@@ -7,9 +7,17 @@
 
 namespace vimd {
 
-ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff) {
+ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff,
+                                  const std::string& modifier, double r_switch, int smoothness) {
   ReactionField rf;
-  if (coulomb == "none") return rf;
+  if (modifier != "none" && modifier != "potential-switch")
+    throw InputError("[forcefield]", 0,
+                     "unknown coulomb_modifier '" + modifier + "' (expected none or potential-switch)");
+  if (coulomb == "none") {
+    if (modifier != "none")
+      throw InputError("[forcefield]", 0, "coulomb_modifier = \"" + modifier + "\" needs a Coulomb interaction (coulomb is none)");
+    return rf;
+  }
   if (coulomb != "reaction-field" && coulomb != "cutoff")
     throw InputError("[forcefield]", 0, "unknown coulomb '" + coulomb + "' (expected reaction-field, cutoff or none)");
   if (!(epsilon_r > 0)) throw InputError("[forcefield]", 0, "epsilon_r must be positive");
@@ -25,7 +33,16 @@ ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, 
     rf.k_rf = (epsilon_rf - epsilon_r) / ((2 * epsilon_rf + epsilon_r) * rc3);
   }
   rf.c_rf = 1 / cutoff + rf.k_rf * cutoff * cutoff;
+  if (modifier == "potential-switch") {
+    rf.modifier = CoulombModifier::potential_switch;
+    rf.sw = make_switch_function(r_switch, cutoff, smoothness, "coulomb_switch");
+  }
   return rf;
+}
+
+int coulomb_continuity(const ReactionField& rf, double cutoff) {
+  if (rf.modifier == CoulombModifier::potential_switch) return rf.sw.smoothness;
+  return std::abs(2 * rf.k_rf * cutoff * cutoff * cutoff - 1) < 1e-12 ? 1 : 0;
 }
 
 }  // namespace vimd

@@ -11,32 +11,45 @@
 // The excluded-pair and self terms are what GROMACS's nbnxm kernels add (kernel_ref_inner.h:
 // excluded pairs inside the cut-off keep qq (k_rf r² − c_rf); kernel_ref_outer.h: −½ qi² c_rf per atom).
 //
-// The pair kernels (reaction_field-inl.h) use the same convention as lennard_jones.hpp:
+// coulomb_modifier = "potential-switch" (not in GROMACS) multiplies the interacting-pair potential
+// by the switch of switch_function.hpp: φ = V_RF(r)·S(r − r_switch), so that φ is C^k at r_switch
+// and C^(k+1) at the cut-off (V_RF(rc) = 0), k = switch_smoothness; without it the RF force jumps
+// at rc unless eps_rf = ∞, and its derivative jumps always. The excluded-pair term is switched the
+// same way, qq (k_rf r² − c_rf)·S: it is the reaction-field part of a pair whose bare 1/r is
+// excluded, so it takes the same factor as the included pairs' reaction field, and unswitched it
+// would jump by −qq/rc at the cut-off for an excluded pair that reaches it (possible only in long
+// molecules; water's excluded pairs stay far inside r_switch, where S = 1, so water is unchanged).
+// The self term is that pair term's r → 0 limit, where S = 1: unchanged.
+//
+// The kernels (reaction_field-inl.h) use the same convention as lennard_jones.hpp:
 // g = −φ'/r, a = φ'/r, b = (φ'' − φ'/r)/r²; qq already includes f/eps_r.
 #include <string>
 
+#include "forcefields/switch_function.hpp"
 
 namespace vimd {
 
 enum class CoulombKind { none, reaction_field };
+enum class CoulombModifier { none, potential_switch };
 
 struct ReactionField {
   CoulombKind kind = CoulombKind::none;
+  CoulombModifier modifier = CoulombModifier::none;
   double prefactor = 0;  // f / eps_r, kJ/mol nm e⁻²
   double k_rf = 0;       // nm⁻³
   double c_rf = 0;       // nm⁻¹
+  SwitchFunction sw;     // potential_switch only
 };
 
-// coulomb: "reaction-field" | "cutoff" | "none"; throws InputError for anything else or bad epsilons.
-ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff);
+// coulomb: "reaction-field" | "cutoff" | "none"; modifier: "none" | "potential-switch" (then
+// 0 ≤ r_switch < cutoff, and coulomb must not be "none"); throws InputError for anything else or bad
+// epsilons.
+ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff,
+                                  const std::string& modifier = "none", double r_switch = 0, int smoothness = 2);
 
-// Excluded pair inside the cut-off: φ = qq (k_rf r² − c_rf), a pure quadratic (b = 0).
-inline void rf_excluded_energy_force(const ReactionField& rf, double qq, double r2, double& v, double& g) {
-  v = qq * (rf.k_rf * r2 - rf.c_rf);
-  g = -2 * qq * rf.k_rf;
-}
-
-inline double rf_excluded_hessian(const ReactionField& rf, double qq) { return 2 * qq * rf.k_rf; }
+// n such that the Coulomb pair potential is C^n at the cut-off and the switch: the shifted V(rc) is
+// 0; its force vanishes at rc only for eps_rf = ∞ (C¹), else jumps (C⁰); switched: the smoothness.
+int coulomb_continuity(const ReactionField& rf, double cutoff);
 
 // −½ (f/eps_r) c_rf Σ qi²: a constant energy, no force.
 inline double rf_self_energy(const ReactionField& rf, double sum_q2) { return -0.5 * rf.prefactor * rf.c_rf * sum_q2; }

@@ -50,6 +50,32 @@ const std::map<std::string, ButcherTableau>& builtins() {
               {9.0 / 44, -9.0 / 11, 63.0 / 44, 18.0 / 11, 0.0, -16.0 / 11}},
              {11.0 / 120, 0.0, 27.0 / 40, 27.0 / 40, -4.0 / 15, -4.0 / 15, 11.0 / 120},
              {0.0, 1.0 / 3, 2.0 / 3, 1.0 / 3, 1.0 / 2, 1.0 / 2, 1.0}));
+    // Cooper & Verner's 11-stage method of order 8 (G. J. Cooper, J. H. Verner, "Some explicit
+    // Runge-Kutta methods of high order", SIAM J. Numer. Anal. 9 (1972) 389-405); r = sqrt(21).
+    const double r = std::sqrt(21.0);
+    add(make("rk8", 8,
+             {{},
+              {1.0 / 2},
+              {1.0 / 4, 1.0 / 4},
+              {1.0 / 7, (-7 - 3 * r) / 98, (21 + 5 * r) / 49},
+              {(11 + r) / 84, 0.0, (18 + 4 * r) / 63, (21 - r) / 252},
+              {(5 + r) / 48, 0.0, (9 + r) / 36, (-231 + 14 * r) / 360, (63 - 7 * r) / 80},
+              {(10 - r) / 42, 0.0, (-432 + 92 * r) / 315, (633 - 145 * r) / 90, (-504 + 115 * r) / 70,
+               (63 - 13 * r) / 35},
+              {1.0 / 14, 0.0, 0.0, 0.0, (14 - 3 * r) / 126, (13 - 3 * r) / 63, 1.0 / 9},
+              {1.0 / 32, 0.0, 0.0, 0.0, (91 - 21 * r) / 576, 11.0 / 72, (-385 - 75 * r) / 1152, (63 + 13 * r) / 128},
+              {1.0 / 14, 0.0, 0.0, 0.0, 1.0 / 9, (-733 - 147 * r) / 2205, (515 + 111 * r) / 504, (-51 - 11 * r) / 56,
+               (132 + 28 * r) / 245},
+              {0.0, 0.0, 0.0, 0.0, (-42 + 7 * r) / 18, (-18 + 28 * r) / 45, (-273 - 53 * r) / 72, (301 + 53 * r) / 72,
+               (28 - 28 * r) / 45, (49 - 7 * r) / 18}},
+             {1.0 / 20, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 49.0 / 180, 16.0 / 45, 49.0 / 180, 1.0 / 20},
+             {0.0, 1.0 / 2, 1.0 / 2, (7 + r) / 14, (7 + r) / 14, 1.0 / 2, (7 - r) / 14, (7 - r) / 14, 1.0 / 2,
+              (7 + r) / 14, 1.0}));
+    // A mistyped coefficient must not pass as a lower-order method: check every claim once.
+    for (const auto& [name, t] : m)
+      if (auto failing = first_failing_order_condition(t, t.order))
+        throw std::logic_error("built-in tableau " + name + " violates the order-" + std::to_string(failing->order) +
+                               " condition " + failing->formula);
     return m;
   }();
   return table;

@@ -246,7 +246,6 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   // The start is on TQ already (the engine constrains it, the same for every integrator): take it as it is.
   w.q = state.q;
   w.v = state.v;
-  w.mass_q.set_point(w.q);
   const FixedPairSet pair_set(problem.force_field, w.q);  // as a step from w₀ would fix it (see step())
   forward_segments(w, w.q, w.v, state.step);
 

@@ -30,6 +30,9 @@ TEST(Config, ReadsEveryKey) {
   EXPECT_DOUBLE_EQ(c.forcefield.epsilon_r, 1.0);  // an integer where a number is expected is fine
   EXPECT_DOUBLE_EQ(c.forcefield.epsilon_rf, 78.0);
   EXPECT_DOUBLE_EQ(c.forcefield.neighbor_skin, 0.12);
+  EXPECT_EQ(c.forcefield.coulomb_modifier, "potential-switch");
+  EXPECT_DOUBLE_EQ(c.forcefield.coulomb_switch, 0.75);
+  EXPECT_EQ(c.forcefield.switch_smoothness, 4);
 
   const IntegratorConfig& in = c.integrator;
   EXPECT_EQ(in.type, "vi");
@@ -63,6 +66,8 @@ TEST(Config, DefaultsFromTheContract) {
   EXPECT_EQ(c.forcefield.vdw_modifier, ff.vdw_modifier);
   EXPECT_EQ(c.forcefield.coulomb, ff.coulomb);
   EXPECT_EQ(c.forcefield.epsilon_rf, ff.epsilon_rf);
+  EXPECT_EQ(c.forcefield.coulomb_modifier, "none");
+  EXPECT_EQ(c.forcefield.switch_smoothness, 2);  // GROMACS's potential-switch
   EXPECT_EQ(c.forcefield.neighbor_skin, ff.neighbor_skin);
   EXPECT_EQ(c.integrator.type, in.type);
   EXPECT_EQ(c.integrator.dt, in.dt);
@@ -111,6 +116,12 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"non_ascii_after_value.toml", "non-ASCII character outside a string or comment"},
       {"non_ascii_key.toml", "non-ASCII character in a quoted key"},
       {"non_ascii_multi_line_string.toml", "non-ASCII character in a multi-line string"},
+      {"bad_switch_smoothness.toml", "switch_smoothness must be between 2 and 6"},
+      {"fractional_switch_smoothness.toml", "switch_smoothness must be an integer, found a floating-point number"},
+      {"coulomb_switch_beyond_cutoff.toml", "coulomb_switch (0.95 nm) must be smaller than cutoff (0.9 nm)"},
+      {"coulomb_switch_missing.toml", "needs coulomb_switch"},
+      {"coulomb_modifier_without_coulomb.toml", "needs coulomb = \"reaction-field\" or \"cutoff\""},
+      {"bad_coulomb_modifier.toml", "(choices: none, potential-switch)"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);

@@ -186,7 +186,7 @@ TEST_P(RungeKuttaTest, ForwardAndDiscreteAdjointMatchDualNumbers) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Tableaus, RungeKuttaTest,
-                         ::testing::Combine(::testing::Values("euler", "heun2", "midpoint", "rk3", "rk4", "rk38", "rk6"),
+                         ::testing::Combine(::testing::Values("euler", "heun2", "midpoint", "rk3", "rk4", "rk38", "rk6", "rk8"),
                                             ::testing::Values(0.05, -0.03)),
                          [](const auto& info) {
                            return std::get<0>(info.param) + (std::get<1>(info.param) > 0 ? "_forward" : "_backward");

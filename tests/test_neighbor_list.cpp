@@ -59,7 +59,7 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
       if (excluded) {
         if (!coulomb) continue;
         rf_excluded_energy_force(rf, qq, r2, v, g);
-        a = rf_excluded_hessian(rf, qq);
+        rf_excluded_hessian(rf, qq, r2, a, b);
         ref.coulomb += v;
         ref.coulomb_scale += std::abs(v);
       } else {
@@ -70,8 +70,13 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
         ref.lj_scale += std::abs(v);
         if (coulomb) {
           double vc, gc, ac, bc;
-          rf_energy_force(rf, qq, 1 / r, r2, vc, gc);
-          rf_hessian(rf, qq, 1 / r, ac, bc);
+          if (rf.modifier == CoulombModifier::potential_switch) {
+            rf_energy_force<CoulombModifier::potential_switch>(rf, qq, 1 / r, r2, vc, gc);
+            rf_hessian<CoulombModifier::potential_switch>(rf, qq, 1 / r, r2, ac, bc);
+          } else {
+            rf_energy_force<CoulombModifier::none>(rf, qq, 1 / r, r2, vc, gc);
+            rf_hessian<CoulombModifier::none>(rf, qq, 1 / r, r2, ac, bc);
+          }
           ref.coulomb += vc;
           ref.coulomb_scale += std::abs(vc);
           g += gc;
@@ -126,6 +131,20 @@ void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const 
 }
 
 const char* const kModifiers[] = {"none", "potential-shift", "force-switch", "potential-switch"};
+
+// The SIMD kernels with the Coulomb switch (from 0.05 nm: excluded pairs switched too) and a
+// higher switch smoothness equal the pair-by-pair sum.
+TEST(NeighborList, SwitchedCoulombMatchesBruteForce) {
+  auto [system, q] = testing::water_like_system(300, Vec3(2.6, 2.5, 2.7), 23);
+  for (const char* modifier : kModifiers) {
+    auto config = testing::pair_config(modifier, "reaction-field", 78.0);
+    config.coulomb_modifier = "potential-switch";
+    config.coulomb_switch = 0.05;
+    config.switch_smoothness = 5;
+    NonbondedPairTerm term(system, config);
+    expect_matches_brute_force(term, system, q, std::string(modifier) + " with switched Coulomb, k = 5");
+  }
+}
 
 TEST(NeighborList, MatchesBruteForceOverDisplacedConfigurations) {
   auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 17);

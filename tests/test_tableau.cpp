@@ -36,16 +36,18 @@ TEST(Tableau, ConditionsOfOrderThreeAreTheTextbookOnes) {
 
 TEST(Tableau, BuiltinsHaveExactlyTheirOrder) {
   const std::map<std::string, int> expected = {{"euler", 1}, {"heun2", 2}, {"midpoint", 2}, {"rk3", 3},
-                                                {"rk4", 4},   {"rk38", 4},  {"rk6", 6}};
+                                                {"rk4", 4},   {"rk38", 4},  {"rk6", 6},     {"rk8", 8}};
   for (const auto& name : tableau_names()) {
     SCOPED_TRACE(name);
     const ButcherTableau& t = builtin_tableau(name);
     ASSERT_TRUE(expected.count(name)) << "a new built-in needs an expected order here";
     EXPECT_EQ(t.order, expected.at(name));
     EXPECT_EQ(tableau_structure_problem(t), "");
-    EXPECT_EQ(satisfied_order(t, 8), t.order);
+    // One order above the claim must fail: the stated order is exact.
+    EXPECT_EQ(satisfied_order(t, t.order + 1), t.order);
   }
   EXPECT_GE(builtin_tableau("rk6").order, 6);
+  EXPECT_EQ(builtin_tableau("rk8").stages(), 11);
 }
 
 TEST(Tableau, UnknownBuiltinListsTheNames) {
@@ -135,6 +137,26 @@ TEST(Tableau, OverclaimedOrderNamesTheFirstFailingCondition) {
   rk4.order = 4;
   rk4.b[0] += 1e-6;
   EXPECT_NE(user_error(rk4).find("sum b_i = 1/1"), std::string::npos);
+}
+
+TEST(Tableau, CooperVernerAsUserTableauIsCheckedToOrderEight) {
+  // All 200 conditions up to order 8 hold to the 1e-10 tolerance in double precision (the
+  // coefficients involve sqrt(21)); a perturbed coefficient is refused.
+  const ButcherTableau& t = builtin_tableau("rk8");
+  TableauConfig config;
+  const int s = t.stages();
+  config.a.assign(s, std::vector<double>(s));
+  for (int i = 0; i < s; ++i)
+    for (int j = 0; j < s; ++j) config.a[i][j] = t.a(i, j);
+  config.b = {t.b.data(), t.b.data() + s};
+  config.c = {t.c.data(), t.c.data() + s};
+  config.order = 8;
+  config.line = 17;
+  EXPECT_EQ(order_conditions(8).size(), 200u);
+  EXPECT_NO_THROW(tableau_from_config(config, "run.toml"));
+  config.a[10][4] += 1e-7;
+  config.a[10][0] -= 1e-7;  // keeps the row sum c_11 = 1
+  EXPECT_NE(user_error(config).find("claims order 8 but violates"), std::string::npos);
 }
 
 TEST(Tableau, ResolveByNameOrUser) {

@@ -240,12 +240,16 @@ TEST_P(GlobalOrder, MatchesNominalOrder) {
 
 // Resolutions in the asymptotic range on this system (rk3 with bias [0, 1] has a large
 // fourth-order term at coarse steps: rates 3.7-3.9 down to h = 1/256, 2.9-3.2 from 1/512).
+// rk8's window is narrow: the solve does not converge at h = 1/8 with bias [0, 1], 1/16 -> 1/32 gives 11.5
+// (pre-asymptotic), and at 1/112 the error reaches 1e-11. Measured rates [0, 1]: 1/40 7.83,
+// 1/48 7.88, 1/56 7.92; [-1/2, 1/2] at half as many steps gives the same errors to 3 digits.
 INSTANTIATE_TEST_SUITE_P(Methods, GlobalOrder,
                          ::testing::Values(OrderCase{"euler", 0, 1, 1, 256}, OrderCase{"euler", -0.5, 0.5, 2, 256},
                                            OrderCase{"heun2", 0, 1, 2, 128}, OrderCase{"heun2", -0.5, 0.5, 2, 128},
                                            OrderCase{"rk3", 0, 1, 3, 512}, OrderCase{"rk3", -0.5, 0.5, 4, 128},
                                            OrderCase{"rk4", 0, 1, 4, 128}, OrderCase{"rk4", -0.5, 0.5, 4, 128},
-                                           OrderCase{"rk6", 0, 1, 6, 64}, OrderCase{"rk6", -0.5, 0.5, 6, 64}),
+                                           OrderCase{"rk6", 0, 1, 6, 64}, OrderCase{"rk6", -0.5, 0.5, 6, 64},
+                                           OrderCase{"rk8", 0, 1, 8, 48}, OrderCase{"rk8", -0.5, 0.5, 8, 24}),
                          [](const auto& info) {
                            return info.param.method + (info.param.am == 0 ? "_bias_0_1" : "_bias_symmetric");
                          });

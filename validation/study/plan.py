@@ -82,9 +82,9 @@ class Variant:
 
 BIASES = {"b01": ([0.0, 1.0], "[0,1]", "-"), "bsym": ([-0.5, 0.5], "[-1/2,1/2]", "--")}
 # Built-in tableaus of the engine (integrators/tableau.cpp) with their orders.
-TABLEAU_ORDERS = {"euler": 1, "heun2": 2, "midpoint": 2, "rk3": 3, "rk4": 4, "rk38": 4, "rk6": 6}
+TABLEAU_ORDERS = {"euler": 1, "heun2": 2, "midpoint": 2, "rk3": 3, "rk4": 4, "rk38": 4, "rk6": 6, "rk8": 8}
 TABLEAU_COLORS = {"euler": "#8c564b", "heun2": "#1f77b4", "midpoint": "#17becf", "rk3": "#bcbd22",
-                  "rk4": "#2ca02c", "rk38": "#98df8a", "rk6": "#d62728"}
+                  "rk4": "#2ca02c", "rk38": "#98df8a", "rk6": "#d62728", "rk8": "#e377c2"}
 
 RATTLE = Variant("rattle", "rattle", {"type": "rattle"}, 2, "black", "-", "s")
 SHAKE = Variant("shake", "shake", {"type": "shake"}, 2, "0.55", "-", "D")
