@@ -44,6 +44,12 @@ long ForceField::neighbor_rebuilds() const {
   return n;
 }
 
+double ForceField::neighbor_build_seconds() const {
+  double s = 0;
+  for (const auto& t : terms_) s += t->rebuild_seconds();
+  return s;
+}
+
 Carried ForceField::save() const {
   Carried out;
   for (std::size_t k = 0; k < terms_.size(); ++k) {

@@ -35,6 +35,7 @@ class ForceTerm {
   // energy jump between evaluations (see ForceField::fix_pair_set).
   virtual void fix_pair_set(const Coords* /*q*/) {}
   virtual long rebuilds() const { return 0; }
+  virtual double rebuild_seconds() const { return 0; }
   // Checkpoints: what changes results at round-off besides q (the neighbour list's build
   // positions: the list's order is the summation order), and rebuilding from it.
   virtual void save(Carried& /*out*/) const {}
@@ -59,6 +60,7 @@ class ForceField {
   long force_evaluations() const { return force_evaluations_; }
   long hessian_evaluations() const { return hessian_evaluations_; }
   long neighbor_rebuilds() const;
+  double neighbor_build_seconds() const;
   // Every term's save()/restore(), entries prefixed with the term's index.
   Carried save() const;
   void restore(const Carried& in);

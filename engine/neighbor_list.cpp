@@ -1,5 +1,6 @@
 #include "engine/neighbor_list.hpp"
 
+#include <chrono>
 #include <omp.h>
 
 #include <algorithm>
@@ -86,6 +87,7 @@ void NeighborList::build(const Coords& q) {
   if (!exclusions_.empty() && static_cast<Eigen::Index>(exclusions_.size()) != q.cols())
     throw std::invalid_argument("NeighborList: exclusion lists for " + std::to_string(exclusions_.size()) +
                                 " atoms, positions for " + std::to_string(q.cols()));
+  const auto start = std::chrono::steady_clock::now();
   n_atoms_ = static_cast<int>(q.cols());
   q_at_build_ = q;
   bin_atoms(q);
@@ -93,6 +95,7 @@ void NeighborList::build(const Coords& q) {
   search_pairs();
   collect_excluded_pairs();
   ++builds_;
+  build_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 void NeighborList::bin_atoms(const Coords& q) {

@@ -51,6 +51,8 @@ class NeighborList {
   // Largest displacement of any atom since the last build, nm.
   double max_displacement(const Coords& q) const;
   long builds() const { return builds_; }
+  // Wall time spent in build(), s (the cost reports show it per step).
+  double build_seconds() const { return build_seconds_; }
   // Positions of the last build (empty before the first).
   const Coords& built_at() const { return q_at_build_; }
 
@@ -96,6 +98,7 @@ class NeighborList {
 
   int n_atoms_ = 0;
   long builds_ = 0;
+  double build_seconds_ = 0;
   Coords q_at_build_;
   Coords image_offset_;  // per atom: wrapped = q − image_offset
   Coords wrapped_;       // per atom, at the last build

@@ -31,6 +31,7 @@ class NonbondedPairTerm : public ForceTerm {
   void prepare(const Coords& q) override;
   void fix_pair_set(const Coords* q) override;
   long rebuilds() const override { return list_.builds(); }
+  double rebuild_seconds() const override { return list_.build_seconds(); }
   void save(Carried& out) const override;
   void restore(const Carried& in) override;
 

@@ -93,12 +93,7 @@ class PySimulation {
     } reset{observer_};
     const RunTotals t = run_->simulation->run(state(), steps);
     forces_current_ = true;
-    totals_.steps += t.steps;
-    totals_.wall_seconds += t.wall_seconds;
-    totals_.force_evaluations += t.force_evaluations;
-    totals_.hessian_evaluations += t.hessian_evaluations;
-    totals_.neighbor_rebuilds += t.neighbor_rebuilds;
-    totals_.solver_iterations += t.solver_iterations;
+    totals_.add(t);
     return t;
   }
 
@@ -135,6 +130,7 @@ class PySimulation {
     d["force_evaluations"] = totals_.force_evaluations;
     d["hessian_evaluations"] = totals_.hessian_evaluations;
     d["neighbor_rebuilds"] = totals_.neighbor_rebuilds;
+    d["neighbor_build_seconds"] = totals_.neighbor_build_seconds;
     d["solver_iterations"] = totals_.solver_iterations;
     return d;
   }
