@@ -4,10 +4,21 @@ import json
 import os
 import pathlib
 import subprocess
+import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 VIMD = ROOT / "build" / "vimd"
 RDTSCP_SHIM = ROOT / "build" / "libgmx_rdtscp_shim.so"
+# Every command run() and vimd() ran, as (working directory or None, command line, wall seconds), for
+# scripts that print what a user would type to repeat them.
+HISTORY = []
+
+
+def _timed(cmd, cwd, **kwargs):
+    start = time.monotonic()
+    p = subprocess.run(cmd, cwd=cwd, text=True, capture_output=True, **kwargs)
+    HISTORY.append((cwd, " ".join(map(str, cmd)), time.monotonic() - start))
+    return p
 
 
 def gmx_env(env=None):
@@ -29,7 +40,7 @@ def run(cmd, cwd, stdin=None):
     """Run a command, raising with its output when it fails. OMP_NUM_THREADS is dropped: mdrun
     refuses it when it disagrees with -nt."""
     env = gmx_env({k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"})
-    p = subprocess.run(cmd, cwd=cwd, input=stdin, text=True, capture_output=True, env=env)
+    p = _timed(cmd, cwd, input=stdin, env=env)
     if p.returncode != 0:
         raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
     return p.stdout
@@ -90,7 +101,7 @@ def vimd(*args, threads=None):
     env = dict(os.environ)
     if threads:
         env["OMP_NUM_THREADS"] = str(threads)
-    p = subprocess.run([str(VIMD), *map(str, args)], text=True, capture_output=True, env=env)
+    p = _timed([str(VIMD), *map(str, args)], None, env=env)
     if p.returncode != 0:
         raise RuntimeError(f"vimd {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
     return p.stdout
