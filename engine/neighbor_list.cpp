@@ -20,6 +20,8 @@ constexpr int kCluster = NeighborList::kClusterSize;
 // Below this many atoms the O(N) loops run on one thread: starting a team costs more than the work
 // (small systems are evaluated very often by the variational integrators).
 constexpr int kParallelAtoms = 4096;
+// The pair search does a few hundred distance tests per atom, so it pays to share from far fewer.
+constexpr int kParallelSearchAtoms = 1024;
 constexpr int kHalf = NeighborList::kHalfSize;
 // Clusters whose bounding boxes are tested together in the pair search.
 constexpr int kBoxBatch = 8;
@@ -293,7 +295,7 @@ void NeighborList::search_pairs() {
   std::vector<int> count(n_halves + 1, 0);
   std::vector<int> owner(n_halves), offset(n_halves);
   std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
-#pragma omp parallel if (n_atoms_ >= kParallelAtoms)
+#pragma omp parallel if (n_atoms_ >= kParallelSearchAtoms)
   {
     const int t = omp_get_thread_num();
     std::vector<Entry>& out = per_thread[t];
