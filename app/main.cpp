@@ -219,9 +219,10 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
   run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
 
-  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d threads, SIMD %s, output in %s\n",
+  const int threads = omp_get_max_threads();
+  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d thread%s, SIMD %s, output in %s\n",
               config.file.string().c_str(), system.n_atoms(), run.integrator->name().c_str(), config.integrator.dt,
-              steps, omp_get_max_threads(), simd_description().c_str(), dir.string().c_str());
+              steps, threads, threads == 1 ? "" : "s", simd_description().c_str(), dir.string().c_str());
   if (continuing)
     std::printf("vimd run: continuing from step %ld (%s)\n", checkpoint.state.step, checkpoint_file.string().c_str());
   std::fflush(stdout);
@@ -238,12 +239,6 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
                continue_command(config.file, dir, options.steps).c_str());
   std::fflush(stderr);
   return 128 + totals.stop_signal;
-}
-
-std::string json_number(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
 }
 
 int energy_command(const fs::path& config_file, bool json) {

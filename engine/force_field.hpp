@@ -29,10 +29,11 @@ class ForceTerm {
   // Terms with neighbour lists keep them valid for q here (rebuilding when needed); the
   // ForceField calls this before every evaluation, so no pair inside the cut-off is missed.
   virtual void prepare(const Coords& /*q*/) {}
-  // Fixes which pairs interact to those inside the cut-off at *q, until called with nullptr: every
-  // evaluation in between includes exactly these pairs, wherever they move (each pair potential
-  // continued smoothly past the cut-off), and no others. A cut-off crossing then cannot make the
-  // energy jump between evaluations (see ForceField::fix_pair_set).
+  // Where the force jumps at the cut-off: fixes which pairs interact to those inside it at *q, until
+  // called with nullptr; every evaluation in between includes exactly these pairs, wherever they
+  // move (each pair potential continued smoothly past the cut-off), and no others, so a crossing
+  // cannot make the force jump between evaluations. Where the force is continuous there, nothing
+  // changes: the truncated potential is smooth enough, and exact (see ForceField::fix_pair_set).
   virtual void fix_pair_set(const Coords* /*q*/) {}
   virtual long rebuilds() const { return 0; }
   virtual double rebuild_seconds() const { return 0; }
@@ -50,10 +51,13 @@ class ForceField {
   void compute(const Coords& q, Forces& out);
   // out = ∇²V(q) u
   void hessian_vector(const Coords& q, const Coords& u, Coords& out);
-  // Freezes the interacting pair set of every term at q (nullptr releases it). Between the two
-  // calls the potential is V_q̂(x) = Σ over the pairs inside the cut-off at q̂ of the pair
-  // potentials, each continued analytically beyond the cut-off: a smooth function of x, which the
-  // variational integrator uses as one step's potential so that its step equations are smooth.
+  // Freezes the interacting pair set at q (nullptr releases it) of every term whose force jumps at
+  // the cut-off. Between the two calls its potential is V_q̂(x) = Σ over the pairs inside the
+  // cut-off at q̂ of the pair potentials, each continued analytically beyond the cut-off: a smooth
+  // function of x, which the variational integrator uses as one step's potential so that its step
+  // equations are smooth. A term whose force is continuous at the cut-off keeps its true truncated
+  // potential: the solve converges on it, and the continuation would cost energy conservation
+  // (on water900, switched LJ + reaction field eps_rf = inf, vi rk4: 10x the RMS energy fluctuation).
   void fix_pair_set(const Coords* q);
 
   // Work counters, for cost reports (force-evaluation equivalents).

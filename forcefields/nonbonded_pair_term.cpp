@@ -97,6 +97,9 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
     throw std::invalid_argument("NonbondedPairTerm: type and charge need one entry per atom");
   for (int t : type_)
     if (t < 0 || t >= n_types_) throw std::invalid_argument("NonbondedPairTerm: atom type index out of range");
+  force_continuous_at_cutoff_ =
+      lj_continuity(modifier_, config.switch_smoothness) >= 1 &&
+      (rf_.kind == CoulombKind::none || coulomb_continuity(rf_, config.cutoff) >= 1);
   c6_.resize(static_cast<std::size_t>(n_types_) * n_types_);
   c12_.resize(c6_.size());
   for (int a = 0; a < n_types_; ++a)
@@ -139,7 +142,7 @@ PairView NonbondedPairTerm::pair_view() const {
 
 void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   pair_set_fixed_ = false;
-  if (!q) return;
+  if (!q || force_continuous_at_cutoff_) return;
   prepare(*q);
   fixed_masks_.resize(list_.entries().size());
   const PairView view = pair_view();

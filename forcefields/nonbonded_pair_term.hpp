@@ -91,6 +91,9 @@ class NonbondedPairTerm : public ForceTerm {
   std::vector<std::uint32_t> list_masks_;
   long cache_clock_ = 0, hessian_cache_hits_ = 0;
   bool hessian_requested_ = false;
+  // The force is continuous at the cut-off (C^1 or smoother): the step equations are smooth
+  // enough for the solve without fixing the pair set, which then stays the true truncated one.
+  bool force_continuous_at_cutoff_ = false;
   bool pair_set_fixed_ = false;
   std::vector<std::uint32_t> fixed_masks_;  // per list entry: the fixed set's pairs
 };

@@ -503,13 +503,8 @@ TEST(Failure, ResidualJumpsSettleWhenSmallAndFailClearlyWhenNot) {
   }
 }
 
-// 216 SPC/E waters with plain cut-off Coulomb and shifted LJ: the force jumps at the cut-off, and
-// with this many pairs some stage of some step lands on the jump. Each step fixes its pair set
-// (ForceField::fix_pair_set), so its equations stay smooth and the iteration converges to 1e-12
-// nm/ps at every step (before, the residual stalled on the jump and the run stopped).
-TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
-  System system;
-  Coords q;
+// 216 waters with SPC/E charges and oxygen LJ.
+void spce_water_box(System& system, Coords& q) {
   testing::water_box(6, 0.31, 11, system, q);
   for (int i = 0; i < system.n_atoms(); ++i) {
     const bool oxygen = i % 3 == 0;
@@ -520,6 +515,16 @@ TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
   system.c12 = Eigen::MatrixXd::Zero(2, 2);
   system.c6(0, 0) = 0.0026173456;
   system.c12(0, 0) = 2.634129e-6;
+}
+
+// 216 SPC/E waters with plain cut-off Coulomb and shifted LJ: the force jumps at the cut-off, and
+// with this many pairs some stage of some step lands on the jump. Each step fixes its pair set
+// (ForceField::fix_pair_set), so its equations stay smooth and the iteration converges to 1e-12
+// nm/ps at every step (before, the residual stalled on the jump and the run stopped).
+TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
+  System system;
+  Coords q;
+  spce_water_box(system, q);
   ForceField field;
   field.add(std::make_unique<NonbondedPairTerm>(system, testing::pair_config("potential-shift", "cutoff")));
   Constraints constraints(system.constraints, system.n_atoms(), system.box);
@@ -545,6 +550,36 @@ TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
     }
     std::printf("  bias [%g, %g]: %.2f iterations/step at 1e-12 over %d steps\n", am, ap,
                 static_cast<double>(iterations) / steps, steps);
+  }
+}
+
+// Fixing the pair set changes the potential only where the force jumps at the cut-off. Where it is
+// continuous (switched LJ, reaction field with eps_rf = infinity) the true truncated potential is
+// kept: continuing each pair past the cut-off there made vi rk4 on water900 fluctuate 10x more.
+TEST(FixedPairSet, ContinuesPairsOnlyWhereTheForceJumpsAtTheCutoff) {
+  System system;
+  Coords q;
+  spce_water_box(system, q);
+  // Every atom moved by up to 0.02 nm (inside the list's skin/2): pairs cross the cut-off both ways.
+  const Coords moved = q + 0.02 * testing::thermal_velocities(system, 300, 7).normalized() *
+                               std::sqrt(static_cast<double>(q.cols()));
+  for (auto [modifier, epsilon_rf, continuous] :
+       {std::tuple{"potential-switch", 0.0, true}, std::tuple{"potential-shift", 78.0, false}}) {
+    ForceField field;
+    field.add(std::make_unique<NonbondedPairTerm>(system, testing::pair_config(modifier, "reaction-field", epsilon_rf)));
+    Forces free_run, fixed_run;
+    field.compute(q, free_run);  // builds the list at q
+    field.compute(moved, free_run);
+    {
+      const FixedPairSet pair_set(field, q);
+      field.compute(moved, fixed_run);
+    }
+    if (continuous) {
+      EXPECT_EQ(fixed_run.potential, free_run.potential) << modifier;
+      EXPECT_EQ((fixed_run.f - free_run.f).cwiseAbs().maxCoeff(), 0.0) << modifier;
+    } else {
+      EXPECT_GT(std::abs(fixed_run.potential - free_run.potential), 1e-6) << modifier << ": no pair crossed";
+    }
   }
 }
 
