@@ -5,10 +5,10 @@
 namespace vimd {
 
 Rattle::Rattle(const IntegratorConfig& config)
-    : dt_(config.dt),
+    : ThermostattedIntegrator(config),
+      dt_(config.dt),
       tolerance_(config.constraint_tolerance),
-      max_iterations_(config.max_iterations),
-      thermostat_(make_thermostat(config)) {
+      max_iterations_(config.max_iterations) {
   check_step_config(config);
 }
 
@@ -35,7 +35,7 @@ StepReport Rattle::step(Problem& problem, State& state) {
   evaluate_forces(problem, state, forces_);
   kick(w, state.f, 0.5 * dt_, state.v);
   constraints.project_velocities(state.q, state.v, w);
-  if (thermostat_) thermostat_->apply(problem.system.mass, problem.system.degrees_of_freedom(), state.v);
+  thermostat_step(problem, state);
   return report;
 }
 

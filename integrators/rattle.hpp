@@ -2,7 +2,6 @@
 // RATTLE (Andersen 1983): velocity Verlet with a position constraint stage (Newton on the
 // multipliers along G(q_n)ᵀ) and a velocity projection onto the tangent space at q_{n+1}.
 // State::v holds the on-step velocity v_n.
-#include <optional>
 
 #include "engine/config.hpp"
 #include "engine/integrator.hpp"
@@ -10,7 +9,7 @@
 
 namespace vimd {
 
-class Rattle : public Integrator {
+class Rattle : public ThermostattedIntegrator {
  public:
   explicit Rattle(const IntegratorConfig& config);
   std::string name() const override { return "rattle"; }
@@ -19,23 +18,12 @@ class Rattle : public Integrator {
   // maximum relative bond-length deviation.
   // With thermostat = "v-rescale", v_{n+1} is rescaled at the end of the step.
   StepReport step(Problem& problem, State& state) override;
-  double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
-  // The thermostat's random stream and work: all a checkpoint needs besides the State.
-  Carried carried_state() const override {
-    Carried c;
-    if (thermostat_) thermostat_->save(c);
-    return c;
-  }
-  void restore(Problem&, const State&, const Carried& carried) override {
-    if (thermostat_) thermostat_->load(carried);
-  }
 
  private:
   double dt_, tolerance_;
   int max_iterations_;
   Forces forces_;
   Coords q_start_;
-  std::optional<VRescaleThermostat> thermostat_;
 };
 
 }  // namespace vimd

@@ -14,6 +14,7 @@
 
 #include "engine/carried.hpp"
 #include "engine/config.hpp"
+#include "engine/integrator.hpp"
 #include "engine/types.hpp"
 
 namespace vimd {
@@ -65,5 +66,31 @@ class VRescaleThermostat {
 std::optional<VRescaleThermostat> make_thermostat(const IntegratorConfig& config);
 // For integrators that cannot carry a thermostat: InputError naming the integrator and `why`.
 void refuse_thermostat(const IntegratorConfig& config, const std::string& why);
+
+// An integrator of on-step velocities that may carry the thermostat [integrator] asks for: it
+// calls thermostat_step at the end of each step; the thermostat's work and random stream are
+// all a checkpoint needs besides the State.
+class ThermostattedIntegrator : public Integrator {
+ public:
+  explicit ThermostattedIntegrator(const IntegratorConfig& config) : thermostat_(make_thermostat(config)) {}
+  double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
+  Carried carried_state() const override {
+    Carried c;
+    if (thermostat_) thermostat_->save(c);
+    return c;
+  }
+  void restore(Problem&, const State&, const Carried& carried) override {
+    if (thermostat_) thermostat_->load(carried);
+  }
+
+ protected:
+  // Rescales v_{n+1} (no-op without a thermostat).
+  void thermostat_step(const Problem& problem, State& state) {
+    if (thermostat_) thermostat_->apply(problem.system.mass, problem.system.degrees_of_freedom(), state.v);
+  }
+
+ private:
+  std::optional<VRescaleThermostat> thermostat_;
+};
 
 }  // namespace vimd

@@ -411,8 +411,9 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   // (known before the solve), each continued smoothly past the cut-off. The step's discrete
   // Lagrangian L_h,k is then smooth, so the iteration converges to any tolerance; the steps'
   // Lagrangians differ only by pairs at the cut-off. (Where the force is continuous there, the
-  // true potential is kept: see ForceField::fix_pair_set.) The map (q̄_k, p̄_k) ↦ (q̄_k+1, p̄_k+1) is still the one of a discrete Lagrangian (L_h,k
-  // for this step), hence symplectic, and V_k is translation invariant, so Σ p̄ is conserved.
+  // true potential is kept: see ForceField::fix_pair_set.) The map (q̄_k, p̄_k) ↦ (q̄_k+1, p̄_k+1)
+  // is still the one of a discrete Lagrangian (L_h,k for this step), hence symplectic, and V_k is
+  // translation invariant, so Σ p̄ is conserved.
   const FixedPairSet pair_set(problem.force_field, w.qbar);
   predict(w, state, step);
   w.history_start = 0;

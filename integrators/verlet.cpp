@@ -53,7 +53,7 @@ void check_step_config(const IntegratorConfig& config) {
                      "max_iterations must be at least 1, got " + std::to_string(config.max_iterations));
 }
 
-VelocityVerlet::VelocityVerlet(const IntegratorConfig& config) : dt_(config.dt), thermostat_(make_thermostat(config)) {
+VelocityVerlet::VelocityVerlet(const IntegratorConfig& config) : ThermostattedIntegrator(config), dt_(config.dt) {
   check_step_config(config);
 }
 
@@ -71,7 +71,7 @@ StepReport VelocityVerlet::step(Problem& problem, State& state) {
   state.q += dt_ * state.v;
   evaluate_forces(problem, state, forces_);
   kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
-  if (thermostat_) thermostat_->apply(problem.system.mass, problem.system.degrees_of_freedom(), state.v);
+  thermostat_step(problem, state);
   return {};
 }
 

@@ -1,7 +1,6 @@
 #pragma once
 // Velocity Verlet for unconstrained systems, plus the pieces the constrained integrators
 // (SHAKE, RATTLE) share with it: the half kick, the force update and the config checks.
-#include <optional>
 
 #include "engine/config.hpp"
 #include "engine/integrator.hpp"
@@ -19,7 +18,7 @@ void check_start(const Problem& problem, State& state);
 // InputError for a time step, tolerance or iteration limit no integrator can use.
 void check_step_config(const IntegratorConfig& config);
 
-class VelocityVerlet : public Integrator {
+class VelocityVerlet : public ThermostattedIntegrator {
  public:
   explicit VelocityVerlet(const IntegratorConfig& config);
   std::string name() const override { return "verlet"; }
@@ -27,21 +26,10 @@ class VelocityVerlet : public Integrator {
   void init(Problem& problem, State& state) override;
   // With thermostat = "v-rescale", v_{n+1} is rescaled at the end of the step.
   StepReport step(Problem& problem, State& state) override;
-  double thermostat_work() const override { return thermostat_ ? thermostat_->work() : 0.0; }
-  // The thermostat's random stream and work: all a checkpoint needs besides the State.
-  Carried carried_state() const override {
-    Carried c;
-    if (thermostat_) thermostat_->save(c);
-    return c;
-  }
-  void restore(Problem&, const State&, const Carried& carried) override {
-    if (thermostat_) thermostat_->load(carried);
-  }
 
  private:
   double dt_;
   Forces forces_;
-  std::optional<VRescaleThermostat> thermostat_;
 };
 
 }  // namespace vimd
