@@ -118,8 +118,8 @@ def crossover(reference, candidate):
 
 def fit_order(dts, errors, floor):
     """Observed order of accuracy: slope of log(error) against log(dt), fitted over the three
-    smallest steps whose error is at least 10x above the floor (the reference's own error);
-    also the local slopes between successive steps. Returns (slope or None, points used, locals)."""
+    smallest steps whose error is at least 10x above the floor (the larger of the reference's own
+    error and round-off); also the local slopes between successive steps. Returns (slope or None, points used, locals)."""
     pairs = sorted((dt, e) for dt, e in zip(dts, errors) if e is not None and math.isfinite(e) and e > 0)
     usable = [(dt, e) for dt, e in pairs if e > 10 * floor][:3]
     local = [math.log(e2 / e1) / math.log(d2 / d1) for (d1, e1), (d2, e2) in zip(pairs, pairs[1:])]

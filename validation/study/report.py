@@ -216,7 +216,9 @@ def order_section(order):
            f"between an atom's position at {order['horizon']:g} ps and the reference solution's (positions read "
            f"in full precision with `gmx_d traj -fp`: MDAnalysis reads .trr in single precision). Slope = "
            f"least-squares slope of log(error) vs log(dt) over the three smallest steps whose error is 10x above "
-           f"the reference's own error (study.energy.fit_order).\n"]
+           f"the larger of the reference's own error and the round-off floor of {num(order['error_floor'], 3)} nm "
+           f"(below it the errors stop shrinking with dt: round-off and the solve's tolerance; "
+           f"study.energy.fit_order).\n"]
     if ref is None:
         out.append("**No reference solution**: no candidate method (rk rk6, vi rk6, rk rk4, rattle) finished; "
                    "errors cannot be computed.\n")

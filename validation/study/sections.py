@@ -111,6 +111,8 @@ def order(runner, plan, report_dir, log):
             reference = {"run": fine, "check": coarse, "label": candidate.label,
                          "error": float(np.max(np.linalg.norm(positions(coarse) - x_ref, axis=1)))}
             break
+    floor = max(reference["error"] if reference else 0.0, plan.order_error_floor)
+
     def gromacs_run(gv, dt, tag):
         steps = int(round(horizon / dt))
         return runner.gromacs(system, gv, dt, horizon, tag, max(1, steps // 50), steps,
@@ -136,14 +138,14 @@ def order(runner, plan, report_dir, log):
                 errors.append(None)
             if r["status"] == "not available":
                 break
-        slope, used, local = energy.fit_order([r["dt"] for r in runs], errors,
-                                              reference["error"] if reference else 0.0)
+        slope, used, local = energy.fit_order([r["dt"] for r in runs], errors, floor)
         rows.append({"variant": variant.key, "label": variant.label, "order": nominal,
                      "dts": [r["dt"] for r in runs], "errors": errors, "runs": runs, "slope": slope,
                      "fit_dts": [p[0] for p in used], "local_slopes": local})
     figures.order(rows, reference["error"] if reference else None, report_dir / "order_cluster8.png")
     return {"system": system.name, "atoms": system.atoms, "forcefield": system.forcefield, "note": system.note,
-            "horizon": horizon, "tolerance": tol, "reference": reference, "rows": rows}
+            "horizon": horizon, "tolerance": tol, "reference": reference, "error_floor": plan.order_error_floor,
+            "rows": rows}
 
 
 # ------------------------------------------------------------------ 4 + 5: long runs, MDAnalysis
