@@ -487,7 +487,9 @@ def price_section(price):
     switched, gromacs, own = (res.get(k, {}) for k in (SWITCHED_RATTLE.key, GMX_VARIANTS[0].key, RATTLE.key))
     text = [f"`inputs/{price['system']}` ({price['atoms']} atoms): RATTLE with {price['note']} (smoothness "
             f"C{price['smoothness']}), dt = {fs(price['dt'])} fs, {price['ps']:g} ps with the long runs' frames, "
-            "set against the long runs' (section 4) unswitched reaction field: GROMACS's run (the reference) and "
+            f"held by a v-rescale thermostat (tau_t = {price['tau_t']:g} ps) at the GROMACS run's mean temperature, "
+            f"{price['temperature']:g} K (in NVE from the same start the switched box settles at another "
+            "temperature, which would move D by itself), set against the long runs' (section 4) unswitched reaction field: GROMACS's run (the reference) and "
             "vimd's own RATTLE run (which separates the switch from the engine). Analyses and D's standard error as in "
             "section 5.\n",
             "![O-O RDF, switched and unswitched](smooth_rdf_oo.png)\n", "![MSD, switched and unswitched](smooth_msd.png)\n"]
@@ -502,10 +504,6 @@ def price_section(price):
         if None not in errors and any(errors):
             sigma = abs(switched["diffusion"] - gromacs["diffusion"]) / (errors[0] ** 2 + errors[1] ** 2) ** 0.5
             sentence += f", a difference of {num(sigma, 2)} combined standard errors"
-        sentence += (f". Mean temperatures {num(switched['temperature_engine'])} K switched and "
-                     f"{num(gromacs['temperature_engine'])} K (GROMACS): both runs are NVE from the same start, so the "
-                     "change the switch makes to the start's potential energy shows as a change of temperature, "
-                     "which moves D as well")
         text.append(sentence + ".\n")
     text.append(table(["trajectory", "frames", "first peak r (nm)", "g(peak)", "RMS RDF difference to GROMACS",
                        "D ± error (cm²/s)", "mean T, engine (K)", "command"], rows))
