@@ -11,7 +11,10 @@ numbers names its command; no NaN; and physical sanity: RATTLE and GROMACS at 2 
 (|drift| < 0.05 kJ/mol/ps/atom, 0 < RMS fluctuation < 50 kJ/mol), the O-O RDF peaks at 0.26-0.30 nm
 with height 2-4.5, temperatures 250-350 K, diffusion coefficients 1e-6-3e-4 cm²/s, the observed
 order of RATTLE and gmx md-vv 1.5-2.6 (of SHAKE and gmx md 0.8-2.6: leap-frog started from
-v(-dt/2) is first order), of the other methods within [nominal - 1, nominal + 1.5].
+v(-dt/2) is first order), of the other methods within [nominal - 1, nominal + 1.5]; in section 6
+(smooth interactions) RATTLE's slope of RMS fluctuation vs dt 1.5-2.6 at every smoothness, the
+others' in [0.5, nominal + 1.5] (the smoothness may cap them), every RATTLE/vi time ratio positive,
+a crossover statement, and the switched run's RDF peak, RDF difference to GROMACS (< 0.5) and D.
 Exit status 1 with the list of failures otherwise.
 """
 import argparse
@@ -89,7 +92,7 @@ def check_report(report_dir):
         return c
     text = readme.read_text()
     for heading in ("## 1. Energy drift", "## 2. Work-precision", "## 3. Order study", "## 4. Long runs",
-                    "## 5. MDAnalysis analyses", "## Closing note"):
+                    "## 5. MDAnalysis analyses", "## 6. Smooth interactions", "## Closing note"):
         c.check(heading in text, f"section '{heading}' missing")
     for image in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text):
         png = report_dir / image
@@ -188,6 +191,36 @@ def check_report(report_dir):
                     f"order of {row[0]}: unexpected '{row[2]}'")
     c.check(set(TABLEAU_ORDERS) >= {m.split()[1] for m in (r[0] for r in rows) if m.startswith(("vi ", "rk "))},
             "order study lists an unknown method")
+
+    # Section 6: slopes of RMS fluctuation vs dt, RATTLE's equivalent cost, the price of smoothness.
+    header, rows = column("slope of RMS vs dt")
+    c.check(rows, "no smooth-interactions slope table")
+    for smoothness in {row[0] for row in rows}:
+        c.check(any(r[0] == smoothness and r[1] == "rattle" for r in rows), f"no rattle row at smoothness {smoothness}")
+    for row in rows:
+        slope, nominal = number(row[3]), int(row[2])
+        if row[1] == "rattle":
+            c.in_range(slope, 1.5, 2.6, f"slope of RMS fluctuation vs dt of rattle at {row[0]}")
+        elif slope is not None:
+            c.in_range(slope, 0.5, nominal + 1.5, f"slope of RMS fluctuation vs dt of {row[1]} at {row[0]}")
+        else:
+            c.check(row[3].startswith("n/a"), f"slope of {row[1]} at {row[0]}: unexpected '{row[3]}'")
+    header, rows = column("best RATTLE time / vi time")
+    c.check(rows, "no smooth-interactions crossover table")
+    for row in rows:
+        c.check(row[2] == "n/a" or (magnitude(row[2]) or 0) > 0, f"RATTLE / vi time ratio of {row[1]}: '{row[2]}'")
+    smooth_text = text.split("## 6. Smooth interactions")[-1].split("## Closing note")[0]
+    c.check("**Crossover:**" in smooth_text, "section 6 states no crossover")
+    header, rows = column("RMS RDF difference to GROMACS")
+    c.check(rows, "no price-of-smoothness table")
+    for row in rows:
+        c.in_range(number(row[header.index("first peak r (nm)")]), 0.26, 0.30,
+                   f"RDF first peak position of {row[0]} (price of smoothness)")
+        cell = row[header.index("RMS RDF difference to GROMACS")]
+        if cell != "(reference)":
+            c.in_range(number(cell), 0, 0.5, f"RMS RDF difference of {row[0]} to GROMACS")
+        c.in_range(number(row[header.index("D ± error (cm²/s)")].split("±")[0]), 1e-6, 3e-4,
+                   f"diffusion coefficient of {row[0]} (price of smoothness)")
     return c
 
 

@@ -1,8 +1,10 @@
 """Run the validation study and write its report.
 
     validation/run_all.sh [--quick] [--out DIR] [--runs DIR] [--vimd PATH] [--threads N] [--reuse]
+                          [--sections scan,order,long,smooth]
 
-Full study: report in validation/report/, run outputs in build/study-runs/.
+Full study (~1 h 40 min: sections 1-5 ~1 h at one thread, section 6 "Smooth interactions" ~40 min
+at two threads): report in validation/report/, run outputs in build/study-runs/.
 --quick:    a smoke test of every section with tiny runs; report in build/report-quick/ (or --out),
             so the committed full report is never overwritten by tests.
 """
@@ -54,13 +56,15 @@ def main():
                     help="the vimd program (default build/vimd or $VIMD)")
     ap.add_argument("--threads", type=int, default=1,
                     help="OpenMP threads per run (default 1: on a shared machine two threads per run can be "
-                         "several times slower, and one thread compares every integrator on equal footing)")
+                         "several times slower, and one thread compares every integrator on equal footing); "
+                         "section 6 (smooth) runs at its plan's own count, 2, at which its crossover is stated")
     ap.add_argument("--vimd-source", default="",
                     help="where the vimd binary was built from, for the report (e.g. 'git 3b2245f, clean export')")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse a run whose config, binary and thread count are unchanged (development aid)")
-    ap.add_argument("--sections", default="scan,order,long",
-                    help="comma-separated subset of scan,order,long (long includes the MDAnalysis analyses)")
+    ap.add_argument("--sections", default="scan,order,long,smooth",
+                    help="comma-separated subset of scan,order,long,smooth (long includes the MDAnalysis "
+                         "analyses; smooth compares its switched run with long's GROMACS run when long is run)")
     args = ap.parse_args()
 
     if not args.vimd.is_file():
@@ -73,6 +77,9 @@ def main():
     runs_dir.mkdir(parents=True, exist_ok=True)
     clean_report_dir(report_dir)
     wanted = set(args.sections.split(","))
+    unknown = wanted - {"scan", "order", "long", "smooth"}
+    if unknown:
+        sys.exit(f"study: unknown section(s) {', '.join(sorted(unknown))} in --sections (scan, order, long, smooth)")
 
     start, load_before = time.monotonic(), load()
     runner = Runner(args.vimd, report_dir, runs_dir, args.threads, args.reuse, log=progress)
@@ -84,6 +91,7 @@ def main():
     order = sections.order(runner, plan, report_dir, progress) if "order" in wanted else None
     long = sections.long_runs(runner, plan, report_dir, progress) if "long" in wanted else None
     md = sections.mdanalysis(long, report_dir, progress) if long else None
+    smooth = sections.smooth(runner, plan, report_dir, progress, long) if "smooth" in wanted else None
 
     command = "validation/run_all.sh" + "".join(f" {a}" for a in sys.argv[1:])
     meta = {"command": command, "date": f"{datetime.datetime.now():%Y-%m-%d %H:%M}", "git": git_state(),
@@ -92,9 +100,10 @@ def main():
             "run_minutes": runner.run_seconds / 60,
             "minutes": (time.monotonic() - start) / 60, "load_before": load_before, "load_after": load(),
             "runs": relative(runs_dir), "closing_dts": {"water900": 2 * FS, "polymer": 10 * FS}}
-    report.write(report_dir / "README.md", plan, meta, scan, order, long, md)
+    report.write(report_dir / "README.md", plan, meta, scan, order, long, md, smooth)
     (report_dir / "results.json").write_text(json.dumps(
-        {"meta": meta, "quick": plan.quick, "scan": scan, "order": order, "long": long, "mdanalysis": md},
+        {"meta": meta, "quick": plan.quick, "scan": scan, "order": order, "long": long, "mdanalysis": md,
+         "smooth": smooth},
         indent=1, default=str))
     progress(f"study: wrote {report_dir / 'README.md'} in {meta['minutes']:.1f} min")
     return 0

@@ -76,6 +76,27 @@ def power_fit(front):
     return math.exp(intercept), -slope
 
 
+def reference_cost(front, fit, err):
+    """The reference's cost at error(s) err: interpolated in log-log on its Pareto front where err lies
+    in the front's range, else from its power law fit = (A, k), cost = A err^-k. Returns (cost,
+    whether each err lies in the measured range)."""
+    err = np.asarray(err, dtype=float)
+    lo, hi = front[0][1], front[-1][1]
+    measured = (err >= lo) & (err <= hi)
+    interpolated = np.exp(_log_interp(front, np.clip(err, lo, hi)))
+    return np.where(measured, interpolated, fit[0] * err ** -fit[1]), measured
+
+
+def equivalent_cost(reference, err):
+    """What the reference integrator (RATTLE), given as (cost, error) points of its stable runs, costs
+    at error err: (cost, "interpolated" | "extrapolated"), or None with fewer than two points."""
+    front = pareto(reference)
+    if len(front) < 2:
+        return None
+    cost, measured = reference_cost(front, power_fit(front), err)
+    return float(cost), "interpolated" if bool(measured) else "extrapolated"
+
+
 def crossover(reference, candidate):
     """Where a candidate integrator's cost curve crosses the reference's (RATTLE's), both given as
     (cost, error) points of stable runs. Compared on the candidate's own error range: the
@@ -97,8 +118,7 @@ def crossover(reference, candidate):
         return out
     grid = np.exp(np.linspace(math.log(lo), math.log(hi), 400)) if hi > lo else np.array([lo])
     cand_cost = np.exp(_log_interp(cand, grid)) if len(cand) > 1 else np.full(len(grid), cand[0][0])
-    measured = grid >= ref_lo
-    ref_cost = np.where(measured, np.exp(_log_interp(ref, np.maximum(grid, ref_lo))), fit[0] * grid ** -fit[1])
+    ref_cost, measured = reference_cost(ref, fit, grid)
     ratio = cand_cost / ref_cost
     cheaper = ratio < 1
     out.update({"range": (lo, hi), "ratio_range": (float(ratio.min()), float(ratio.max())),

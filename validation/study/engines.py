@@ -45,12 +45,12 @@ class Runner:
         self.run_seconds = 0.0  # wall time of every run the report uses, as measured when it ran
 
     # ---------------------------------------------------------------- helpers
-    def _env(self, omp):
-        """vimd gets the thread count through OMP_NUM_THREADS; GROMACS through -nt only (mdrun refuses
-        an OMP_NUM_THREADS that disagrees with -nt)."""
+    def _env(self, threads):
+        """vimd gets the thread count through OMP_NUM_THREADS; GROMACS (threads None) through -nt only
+        (mdrun refuses an OMP_NUM_THREADS that disagrees with -nt)."""
         env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
-        if omp:
-            env["OMP_NUM_THREADS"] = str(self.threads)
+        if threads:
+            env["OMP_NUM_THREADS"] = str(threads)
             return env
         return gmx_env(env)
 
@@ -60,11 +60,12 @@ class Runner:
         stored = json.loads(key_file.read_text())
         return stored if stored.get("key") == key else None
 
-    def _execute(self, args, log_file, timeout, omp=True):
-        """Run a command from the repository root; (returncode, combined output, wall seconds)."""
+    def _execute(self, args, log_file, timeout, threads=None):
+        """Run a command from the repository root with `threads` OpenMP threads (None: the
+        environment without OMP_NUM_THREADS); (returncode, combined output, wall seconds)."""
         start = time.monotonic()
         try:
-            p = subprocess.run(args, cwd=ROOT, env=self._env(omp), text=True, capture_output=True, timeout=timeout)
+            p = subprocess.run(args, cwd=ROOT, env=self._env(threads), text=True, capture_output=True, timeout=timeout)
             rc, out = p.returncode, p.stdout + p.stderr
         except subprocess.TimeoutExpired as e:
             rc, out = -1, f"{e.stdout or ''}{e.stderr or ''}\nstudy: timeout after {timeout} s"
@@ -74,7 +75,10 @@ class Runner:
 
     # ---------------------------------------------------------------- vimd
     def vimd(self, system, variant, dt, ps, tag, energy_every, trajectory_every, overrides=None,
-             tolerance=1e-10, timeout=3600, stability_fraction=0.01):
+             tolerance=1e-10, timeout=3600, stability_fraction=0.01, threads=None):
+        """One vimd run; `threads` overrides the study's thread count (a section measuring wall time
+        at a stated thread count)."""
+        threads = threads or self.threads
         steps = int(round(ps / dt))
         name = f"{variant.key}_dt{fs(dt)}fs"
         config = self.config_dir / tag / f"{name}.toml"
@@ -89,9 +93,9 @@ class Runner:
         args = [relative(self.vimd_path), "run", relative(config), "--out", relative(out)]
         result = {"kind": "vimd", "system": system.name, "variant": variant.key, "label": variant.label,
                   "dt": dt, "steps": steps, "ps": steps * dt, "atoms": system.atoms,
-                  "command": f"OMP_NUM_THREADS={self.threads} " + " ".join(args), "out": relative(out),
-                  "config": relative(config)}
-        key = hashlib.sha256((config.read_text() + self.binary_id + str(self.threads)).encode()).hexdigest()
+                  "command": f"OMP_NUM_THREADS={threads} " + " ".join(args), "out": relative(out),
+                  "config": relative(config), "threads": threads}
+        key = hashlib.sha256((config.read_text() + self.binary_id + str(threads)).encode()).hexdigest()
         key_file = out.parent / f"{name}.key.json"
         stored = self._cached(key_file, key)
         if stored is None:
@@ -100,7 +104,7 @@ class Runner:
                 rc, text, wall = 127, f"vimd binary {self.vimd_path} does not exist", 0.0
             else:
                 self.log(f"  {result['command']}")
-                rc, text, wall = self._execute(args, out.parent / f"{name}.log", timeout)
+                rc, text, wall = self._execute(args, out.parent / f"{name}.log", timeout, threads)
             stored = {"key": key, "returncode": rc, "message": _last_words(text) if rc else "", "wall": wall}
             key_file.write_text(json.dumps(stored))
         result["wall_measured"] = stored["wall"]
@@ -174,10 +178,10 @@ class Runner:
             shutil.rmtree(out, ignore_errors=True)
             out.mkdir(parents=True)
             self.log(f"  {' '.join(mdrun)}")
-            rc, text, _ = self._execute(grompp, out / "grompp.log", 300, omp=False)
+            rc, text, _ = self._execute(grompp, out / "grompp.log", 300)
             wall = 0.0
             if rc == 0:
-                rc, text, wall = self._execute(mdrun, out / "mdrun.out", timeout, omp=False)
+                rc, text, wall = self._execute(mdrun, out / "mdrun.out", timeout)
                 log = out / "gmx.log"
                 found = re.search(r"^\s+Time:\s+\S+\s+(\S+)", log.read_text(), re.MULTILINE) if log.exists() else None
                 wall = float(found.group(1)) if found else wall

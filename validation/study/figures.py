@@ -10,7 +10,8 @@ from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
 from . import plan  # noqa: E402
 
-STYLES = {v.key: v for v in plan.order_variants(list(plan.TABLEAU_ORDERS)) + plan.SCAN_VARIANTS + plan.GMX_VARIANTS}
+STYLES = {v.key: v for v in plan.order_variants(list(plan.TABLEAU_ORDERS)) + plan.SCAN_VARIANTS + plan.GMX_VARIANTS
+          + [plan.SWITCHED_RATTLE]}
 DPI = 110
 
 
@@ -54,6 +55,29 @@ def _completed(runs):
     return [r for r in runs if "stats" in r]
 
 
+def _against_dt(ax, key, runs, metric, label):
+    """One integrator's runs: abs(metric) against the time step; unstable runs crossed in red, failed
+    runs as red crosses on the top edge, the largest stable step ringed."""
+    top = blended_transform_factory(ax.transData, ax.transAxes)
+    done = _completed(runs)
+    st = _style(key)
+    if done:
+        ax.plot([r["dt"] / plan.FS for r in done], [abs(r["stats"][metric]) for r in done], label=label,
+                markersize=5, **st)
+        ok = [r for r in done if r["status"] == "ok"]
+        if ok:
+            best = max(ok, key=lambda r: r["dt"])
+            ax.plot(best["dt"] / plan.FS, abs(best["stats"][metric]), "o", markersize=13, mfc="none",
+                    mec=st["color"], mew=1.5)
+        for r in done:
+            if r["status"] == "unstable":
+                ax.plot(r["dt"] / plan.FS, abs(r["stats"][metric]), "x", color="red", markersize=10, mew=2)
+    for r in runs:
+        if r["status"] == "failed":
+            ax.plot(r["dt"] / plan.FS, 0.97, "x", color="red", markersize=9, mew=2, transform=top)
+            ax.plot(r["dt"] / plan.FS, 0.97, st["marker"], color=st["color"], markersize=4, transform=top)
+
+
 def scan(system, series, path):
     """|drift| and RMS fluctuation against the time step, one line per integrator; unstable runs
     crossed in red, failed runs as red crosses on the top edge, the largest stable step ringed."""
@@ -61,26 +85,8 @@ def scan(system, series, path):
     metrics = [("drift_per_atom", "|energy drift| (kJ/mol/ps per atom)"),
                ("rms_fluctuation", "RMS energy fluctuation (kJ/mol)")]
     for ax, (metric, ylabel) in zip(axes, metrics):
-        top = blended_transform_factory(ax.transData, ax.transAxes)
         for key, runs in series.items():
-            done = _completed(runs)
-            st = _style(key)
-            if done:
-                x = [r["dt"] / plan.FS for r in done]
-                y = [abs(r["stats"][metric]) for r in done]
-                ax.plot(x, y, label=runs[0]["label"], markersize=5, **st)
-                ok = [r for r in done if r["status"] == "ok"]
-                if ok:
-                    best = max(ok, key=lambda r: r["dt"])
-                    ax.plot(best["dt"] / plan.FS, abs(best["stats"][metric]), "o", markersize=13, mfc="none",
-                            mec=st["color"], mew=1.5)
-                for r in done:
-                    if r["status"] == "unstable":
-                        ax.plot(r["dt"] / plan.FS, abs(r["stats"][metric]), "x", color="red", markersize=10, mew=2)
-            for r in runs:
-                if r["status"] == "failed":
-                    ax.plot(r["dt"] / plan.FS, 0.97, "x", color="red", markersize=9, mew=2, transform=top)
-                    ax.plot(r["dt"] / plan.FS, 0.97, st["marker"], color=st["color"], markersize=4, transform=top)
+            _against_dt(ax, key, runs, metric, runs[0]["label"])
         _log_axes(ax)
         _step_ticks(ax, [r["dt"] / plan.FS for runs in series.values() for r in runs])
         ax.set_xlabel("time step (fs)")
@@ -128,6 +134,71 @@ def work_precision(system, series, path):
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
+
+
+def _smooth_panels(levels, height=5):
+    fig, axes = plt.subplots(1, len(levels), figsize=(6 * len(levels), height), squeeze=False)
+    return fig, dict(zip(levels, axes[0]))
+
+
+def _finish_smooth_panel(ax, smoothness, xlabel, step_ticks=None):
+    _log_axes(ax)
+    if step_ticks:
+        _step_ticks(ax, step_ticks)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("RMS energy fluctuation (kJ/mol)")
+    ax.set_title(f"switch smoothness C{smoothness}")
+    ax.grid(True, which="both", alpha=0.3)
+    _legend(ax, fontsize=7)
+
+
+def smooth_rms(levels, floor, path):
+    """Section 6: RMS fluctuation against the step, one panel per switch smoothness, each integrator
+    with its fitted slope (the fit drawn dotted over the steps it used)."""
+    fig, panels = _smooth_panels(levels)
+    for k, ax in panels.items():
+        level = levels[k]
+        for key, runs in level["series"].items():
+            fit = level["fits"][key]
+            slope = f"{fit['slope']:.2f}" if fit["slope"] is not None else "n/a"
+            _against_dt(ax, key, runs, "rms_fluctuation", f"{runs[0]['label']} (slope {slope})")
+            if fit["slope"] is not None:
+                used = [r for r in runs if r["dt"] in fit["fit_dts"] and "stats" in r]
+                x = np.array([r["dt"] for r in used])
+                y0 = np.exp(np.mean(np.log([r["stats"]["rms_fluctuation"] for r in used]) -
+                                    fit["slope"] * np.log(x)))
+                ax.plot(x / plan.FS, y0 * x ** fit["slope"], color="0.3", linestyle=":", linewidth=1)
+        ax.axhline(10 * floor, color="0.6", linewidth=0.8, linestyle="--")
+        ax.text(0.02, 10 * floor, " fits use points above this", fontsize=7, color="0.4", va="bottom",
+                transform=blended_transform_factory(ax.transAxes, ax.transData))
+        _finish_smooth_panel(ax, k, "time step (fs)",
+                             [r["dt"] / plan.FS for runs in level["series"].values() for r in runs])
+    _save(fig, path)
+
+
+def smooth_work_precision(levels, path):
+    """Section 6: RMS fluctuation against wall time per ps, one panel per smoothness, with RATTLE's
+    fitted power law (dashed) where its cost is extrapolated for the crossover."""
+    fig, panels = _smooth_panels(levels)
+    for k, ax in panels.items():
+        level = levels[k]
+        errors = []
+        for key, runs in level["series"].items():
+            ok = sorted((r for r in runs if r["status"] == "ok"), key=lambda r: r["dt"])
+            if not ok:
+                continue
+            errors += [r["stats"]["rms_fluctuation"] for r in ok]
+            ax.plot([r["cost"]["wall_per_ps"] for r in ok], [r["stats"]["rms_fluctuation"] for r in ok],
+                    label=ok[0]["label"], markersize=5, **_style(key))
+            ax.annotate(f"{plan.fs(ok[0]['dt'])} fs", (ok[0]["cost"]["wall_per_ps"], ok[0]["stats"]["rms_fluctuation"]),
+                        fontsize=6, xytext=(3, 3), textcoords="offset points", color=_style(key)["color"])
+        if level["rattle_fit"] and errors and min(errors) > 0:
+            a, k_fit = level["rattle_fit"]
+            e = np.logspace(np.log10(min(errors)), np.log10(max(errors)), 50)
+            ax.plot(a * e ** -k_fit, e, color="black", linestyle="--", linewidth=0.8,
+                    label=f"RATTLE's fit: cost ∝ error^-{k_fit:.2f}")
+        _finish_smooth_panel(ax, k, "wall time per simulated ps (s)")
+    _save(fig, path)
 
 
 def order(rows, reference_error, path):

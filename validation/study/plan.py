@@ -52,6 +52,17 @@ def water(name, skin):
     return System(name, SMOOTH_WATER | {"neighbor_skin": skin}, SMOOTH_NOTE + f", neighbour skin {skin} nm")
 
 
+def switched(system, smoothness):
+    """A water system of the study with the reaction field switched to zero over the same 0.7-0.9 nm
+    as LJ, and both switches smooth to `smoothness` continuous derivatives of the pair potential at
+    both ends (2 = GROMACS's quintic potential-switch)."""
+    ff = system.forcefield | {"coulomb_modifier": "potential-switch", "coulomb_switch": system.forcefield["vdw_switch"],
+                              "switch_smoothness": smoothness}
+    note = (f"LJ and reaction field (eps_rf = infinity) both potential-switched {ff['vdw_switch']:g}-{ff['cutoff']:g} nm, "
+            f"pair potential C{smoothness} at both ends of the switch, neighbour skin {ff['neighbor_skin']:g} nm")
+    return dataclasses.replace(system, forcefield=ff, note=note)
+
+
 SYSTEMS = {
     "water900": water("water900", 0.1),
     # cut-off + skin must stay below half of the 1.864 nm box (inputs/README.md)
@@ -88,6 +99,9 @@ TABLEAU_COLORS = {"euler": "#8c564b", "heun2": "#1f77b4", "midpoint": "#17becf",
 
 RATTLE = Variant("rattle", "rattle", {"type": "rattle"}, 2, "black", "-", "s")
 SHAKE = Variant("shake", "shake", {"type": "shake"}, 2, "0.55", "-", "D")
+# RATTLE on the switched interactions (section 6's price of smoothness), told apart from RATTLE on the
+# long runs' unswitched reaction field in tables and figures.
+SWITCHED_RATTLE = Variant("rattle-switched", "rattle, LJ + RF switched", {"type": "rattle"}, 2, "#d62728", "--", "s")
 
 
 def vi(method, bias_key):
@@ -104,6 +118,24 @@ def rk(method):
 
 SCAN_VARIANTS = [RATTLE, SHAKE] + [vi(m, b) for m in ("heun2", "rk4", "rk6") for b in BIASES] + [rk("rk4")]
 LONG_VARIANTS = [vi("rk4", "b01"), RATTLE, rk("rk4")]
+
+
+@dataclasses.dataclass(frozen=True)
+class SmoothSeries:
+    """One integrator of the smooth-interactions section at one switch smoothness, at these steps."""
+    smoothness: int
+    variant: Variant
+    dts: tuple
+
+
+def smooth_series(smoothness, methods, biases, dts):
+    """RATTLE at dts["rattle"] and vi with each method and bias at dts[method] (a method's steps may
+    depend on the bias: dts[(method, bias)] wins)."""
+    out = [SmoothSeries(smoothness, RATTLE, tuple(x * FS for x in dts["rattle"]))]
+    for m in methods:
+        for b in biases:
+            out.append(SmoothSeries(smoothness, vi(m, b), tuple(x * FS for x in dts.get((m, b), dts[m]))))
+    return tuple(out)
 
 
 def order_variants(tableaus):
@@ -149,6 +181,15 @@ class Plan:
     long_frame_ps: float         # trajectory frame interval of the long runs (MDAnalysis)
     gromacs_traj_ps: float       # length of GROMACS's trajectory for the MDAnalysis comparison
     energy_interval_ps: float    # energy sampling interval of the scans (ps; at least every step)
+    smooth_system: str           # section 6: smooth interactions (LJ and RF switched to smoothness k)
+    smooth_series: tuple         # SmoothSeries: (smoothness, integrator, time steps)
+    smooth_ps: float             # simulated time per run
+    smooth_energy_interval_ps: float   # the same for every run: a multiple of every step
+    smooth_solver_tolerance: float     # vi (nm/ps): below what limits the RMS fluctuation of rk8
+    smooth_max_iterations: int
+    smooth_floor: float          # kJ/mol: RMS fluctuation of round-off and solve; slopes fit points 10x above
+    smooth_threads: int          # OpenMP threads per run of section 6 (the crossover is stated at 2)
+    price_smoothness: int        # the switched run set against GROMACS's unswitched long run
     stability_fraction: float = 0.01   # max |E(t) - E(0)| allowed, as a fraction of <E_kin>
 
 
@@ -158,7 +199,7 @@ FULL = Plan(
     scan_dts={"water900": tuple(x * FS for x in (0.5, 1, 2, 3, 4, 5, 6, 7, 8)),
               # the melt's own step is 10 fs (inputs/README.md); GROMACS drifts strongly at 20 fs
               "polymer": tuple(x * FS for x in (2.5, 5, 10, 15, 20, 30, 40))},
-    # The variational integrators cost 5-40x RATTLE per step; these lengths keep the study within
+    # The variational integrators cost 5-40x RATTLE per step; these lengths keep sections 1-5 within
     # about an hour on an idle machine.
     scan_ps={"water900": 0.5, "polymer": 2.0},
     scan_max_steps={"water900": 250, "polymer": 200},
@@ -177,6 +218,38 @@ FULL = Plan(
     long_frame_ps=0.5,
     gromacs_traj_ps=100.0,
     energy_interval_ps=0.002,
+    # Section 6 costs about 40 min at 2 threads on an idle 2-core machine. Estimate per run: steps x
+    # (0.65 ms per force or Hessian-vector evaluation x evaluations per step + 1.8 ms), with
+    # evaluations per step ~ 1.9 (bias [0,1]) or 3.2 ([-1/2,1/2]) x stages (rk4 4, rk6 7, rk8 13) x
+    # solver iterations, measured at tolerance 1e-10 on short water900 runs: ~6.5 iterations at 2 fs,
+    # ~13 at 4 fs, ~30 at 6 fs for [0,1]; 9, 22 and ~45 for [-1/2,1/2]; RATTLE 1.8 ms/step. Minutes
+    # at 1 ps per run: smoothness 4: RATTLE 0.2, rk4 [0,1] 1.6, rk4 [-1/2,1/2] 3.8, rk6 [0,1] 2.7,
+    # rk6 [-1/2,1/2] 5.4, rk8 [0,1] 4.0, rk8 [-1/2,1/2] 8.0 (26 min); smoothness 6 (does the order
+    # climb further?): RATTLE, rk6 and rk8 at [0,1], 5.5 min; smoothness 2 (GROMACS's switch, where
+    # the order should stall): RATTLE, rk4, rk6, rk8 at [0,1], 6.8 min. Total ~38 min, plus ~1 min
+    # for the price-of-smoothness run (water216, RATTLE, the long runs' length) and its analysis.
+    # The largest steps cost the most per ps (iterations grow fast); a sweep stops at the first
+    # unstable or unconverged step.
+    smooth_system="water900",
+    smooth_series=(
+        smooth_series(4, ("rk4", "rk6", "rk8"), BIASES,
+                      {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4, 6), ("rk4", "bsym"): (1.5, 2, 3, 4, 6),
+                       "rk6": (1.5, 2, 3, 4, 6), ("rk6", "bsym"): (2, 3, 4, 6), "rk8": (2, 3, 4, 6),
+                       ("rk8", "bsym"): (3, 4, 6)})
+        + smooth_series(6, ("rk6", "rk8"), ("b01",), {"rattle": (0.25, 0.5, 1, 2), "rk6": (2, 3, 4, 6),
+                                                       "rk8": (3, 4, 6)})
+        + smooth_series(2, ("rk4", "rk6", "rk8"), ("b01",), {"rattle": (0.25, 0.5, 1, 2), "rk4": (2, 3, 4, 6),
+                                                              "rk6": (2, 3, 4, 6), "rk8": (3, 4, 6)})),
+    smooth_ps=1.0,
+    smooth_energy_interval_ps=0.012,   # a multiple of every step above
+    # rk8 at 6 fs converges to 1e-10 nm/ps in ~26 iterations; 200 leaves room for the slowest steps
+    smooth_solver_tolerance=1e-10,
+    smooth_max_iterations=200,
+    # Round-off and the 1e-10 solve: a quick-study run (vi rk8 [-1/2,1/2], water216, 2 fs) fluctuated
+    # by only 2e-9 kJ/mol, so they stay below that; slopes use points above 1e-8.
+    smooth_floor=1e-9,
+    smooth_threads=2,
+    price_smoothness=4,
 )
 
 QUICK = Plan(
@@ -200,6 +273,16 @@ QUICK = Plan(
     long_frame_ps=0.05,
     gromacs_traj_ps=1.0,
     energy_interval_ps=0.002,
+    smooth_system="water216",
+    # RATTLE's steps 4x apart: its cost per ps must fall with dt although start-up dominates such short runs
+    smooth_series=smooth_series(4, ("rk4", "rk8"), BIASES, {"rattle": (0.5, 2), "rk4": (2, 4), "rk8": (2, 4)}),
+    smooth_ps=0.048,
+    smooth_energy_interval_ps=0.004,
+    smooth_solver_tolerance=1e-10,
+    smooth_max_iterations=200,
+    smooth_floor=1e-9,
+    smooth_threads=2,
+    price_smoothness=4,
 )
 
 

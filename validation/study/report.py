@@ -3,7 +3,7 @@ number names the command of the run it comes from; derived numbers name the func
 them (in validation/study)."""
 import math
 
-from .plan import fs
+from .plan import GMX_VARIANTS, RATTLE, SWITCHED_RATTLE, fs
 
 NOT_AVAILABLE = "not available in this build"
 
@@ -135,7 +135,8 @@ def crossover_sentence(label, c, cost_name):
     kind = c.get("kind")
     if kind == "no data":
         if c.get("reference_points", 0) < 2:
-            return f"{label}: RATTLE has fewer than two stable runs, so there is no cost curve to compare.", None, None
+            return (f"{label}: RATTLE's stable runs give fewer than two points of a cost curve (a run that is both "
+                    f"dearer and less accurate than another is not on it), so there is none to compare.", None, None)
         if not c.get("candidate_points"):
             return f"{label}: no stable runs to compare.", None, None
         return (f"{label} is less accurate at every step than RATTLE at its largest stable step: no common "
@@ -311,9 +312,11 @@ def mdanalysis_section(md, long):
               "#### Mean-square displacement and diffusion coefficient\n", "![MSD](msd.png)\n",
               "D = slope / 6 of the oxygens' MSD, fitted between 10 % and 50 % of the trajectory length "
               "(positions unwrapped frame to frame by minimum image). SPC/E's literature value is about "
-              "2.5e-5 cm²/s at 300 K with Ewald; reaction field and the small box shift it.\n",
-              table(["trajectory", "D (cm²/s)", "fit window (ps)", "command"],
-                    [[v["label"], num(v["diffusion"], 3),
+              "2.5e-5 cm²/s at 300 K with Ewald; reaction field and the small box shift it. Its standard error: "
+              f"the spread of D fitted the same way on {next(iter(ok.values()))['diffusion_blocks']} consecutive "
+              "blocks of the trajectory, over the square root of their number.\n",
+              table(["trajectory", "D (cm²/s)", "standard error (cm²/s)", "fit window (ps)", "command"],
+                    [[v["label"], num(v["diffusion"], 3), num(v["diffusion_error"], 2),
                       f"{v['msd_window'][0]:g}-{v['msd_window'][1]:g}" if v["msd_window"] else "-",
                       code(v["command"])] for v in ok.values()]),
               "#### Temperature\n", "![temperature](temperature.png)\n",
@@ -324,6 +327,189 @@ def mdanalysis_section(md, long):
                     [[v["label"], num(v["temperature_mdanalysis"]), num(v["temperature_engine"]), v["dof"],
                       code(v["command"])] for v in ok.values()])]
     return "\n".join(parts)
+
+
+# ---------------------------------------------------------------- section 6
+def _equivalent_text(e):
+    return "RATTLE's runs interpolated" if e["basis"] == "interpolated" else "RATTLE's power law extrapolated"
+
+
+def best_equivalent(runs, basis=None):
+    """The stable run with the largest RATTLE time / vi time (only those whose RATTLE cost has this
+    basis, if given), or None."""
+    ranked = [r for r in runs if r["status"] == "ok" and "rattle_equivalent" in r
+              and basis in (None, r["rattle_equivalent"]["basis"])]
+    return max(ranked, key=lambda r: r["rattle_equivalent"]["ratio"]) if ranked else None
+
+
+def _ratio_text(k, label, run):
+    e = run["rattle_equivalent"]
+    return (f"**{num(e['ratio'], 3)}x** — {label} at C{k}, dt = {fs(run['dt'])} fs, reaches an RMS fluctuation of "
+            f"{num(run['stats']['rms_fluctuation'], 3)} kJ/mol in {num(run['cost']['wall_per_ps'], 3)} s per ps; "
+            f"RATTLE needs {num(e['wall_per_ps'], 3)} s per ps for it ({_equivalent_text(e)})")
+
+
+def smooth_crossover_rows(sm):
+    """Per (smoothness, vi): the best wall-time ratio against RATTLE and the crossover accuracy."""
+    rows, summary = [], []
+    for k, level in sm["levels"].items():
+        for key, c in level["crossovers"].items():
+            runs = level["series"][key]
+            label = runs[0]["label"]
+            sentence, threshold, how = crossover_sentence(label, c, "wall time per ps")
+            best = best_equivalent(runs)
+            if best is None:
+                rows.append([f"C{k}", label, "n/a", "-", "-", "-", "-", "-", sentence,
+                             code(runs[0].get("command"))])
+                continue
+            e = best["rattle_equivalent"]
+            rows.append([f"C{k}", label, f"**{num(e['ratio'], 3)}**", fs(best["dt"]),
+                         num(best["stats"]["rms_fluctuation"], 3), num(best["cost"]["wall_per_ps"], 3),
+                         num(e["wall_per_ps"], 3), _equivalent_text(e),
+                         (f"{num(threshold, 3)} kJ/mol ({how}). " if threshold is not None else "") + sentence,
+                         code(best["command"])])
+            summary.append({"k": k, "label": label, "best": best,
+                            "best_interpolated": best_equivalent(runs, "interpolated"),
+                            "threshold": threshold, "how": how})
+    return rows, summary
+
+
+def smooth_headline(sm, summary):
+    """The crossover statement of section 6, from the data: at smoothness >= 4 (else at any), the best
+    ratio, the best with RATTLE's cost interpolated between its runs, and the loosest accuracy from
+    which a variational integrator is cheaper than RATTLE."""
+    smooth_enough = [t for t in summary if t["k"] >= 4] or summary
+    if not smooth_enough:
+        return ("No variational integrator run could be compared with RATTLE (the reason per integrator is in the "
+                "table), so no crossover can be stated.")
+    where = " at smoothness >= 4" if smooth_enough[0]["k"] >= 4 else ""
+    ratio = lambda run: run["rattle_equivalent"]["ratio"]
+    t = max(smooth_enough, key=lambda t: ratio(t["best"]))
+    text = [f"Best wall-time ratio RATTLE / vi{where}: {_ratio_text(t['k'], t['label'], t['best'])}."]
+    inside = [t for t in smooth_enough if t["best_interpolated"]]
+    if inside:
+        t = max(inside, key=lambda t: ratio(t["best_interpolated"]))
+        text.append(f"Best with RATTLE's cost interpolated between its measured runs: "
+                    f"{_ratio_text(t['k'], t['label'], t['best_interpolated'])}.")
+    else:
+        text.append("No vi run lies inside RATTLE's measured range of RMS fluctuation, so every ratio rests on "
+                    "RATTLE's extrapolated power law.")
+    cheaper = [t for t in smooth_enough if t["threshold"] is not None]
+    if cheaper:
+        t = max(cheaper, key=lambda t: t["threshold"])
+        text.append(f"Crossover accuracy: below an RMS fluctuation of **{num(t['threshold'], 3)} kJ/mol** a "
+                    f"variational integrator is cheaper in wall time than RATTLE ({t['label']} at C{t['k']}; "
+                    f"{t['how']}).")
+    else:
+        text.append("No variational integrator is cheaper than RATTLE at any accuracy compared here.")
+    return " ".join(text)
+
+
+def smooth_slopes(sm):
+    dts = sorted({r["dt"] for level in sm["levels"].values() for runs in level["series"].values() for r in runs})
+    rows, stated = [], []
+    for k, level in sm["levels"].items():
+        for key, runs in level["series"].items():
+            fit = level["fits"][key]
+            label = runs[0]["label"]
+            rms = {r["dt"]: r["stats"]["rms_fluctuation"] for r in runs if "stats" in r and r["status"] == "ok"}
+            stable = [r["dt"] for r in runs if r["status"] == "ok"]
+            slope = num(fit["slope"], 3) if fit["slope"] is not None else "n/a (fewer than two points above the floor)"
+            rows.append([f"C{k}", label, fit["order"], slope, ", ".join(fs(d) for d in fit["fit_dts"]) or "-",
+                         ", ".join(f"{x:.2f}" for x in fit["local_slopes"]) or "-",
+                         fs(max(stable)) if stable else "none"] + [num(rms.get(d), 3) if d in rms else "-" for d in dts])
+            if fit["slope"] is not None:
+                stated.append(f"{label} {num(fit['slope'], 3)} (C{k})")
+    return rows, dts, stated
+
+
+def smooth_section(sm):
+    ff = next(iter(sm["levels"].values()))["forcefield"]
+    out = [f"`inputs/{sm['system']}` ({sm['atoms']} atoms), NVE from its `conf.gro` for {sm['ps']:g} ps per run, "
+           f"{sm['threads']} OpenMP threads per run (the crossover is stated at this thread count). Interactions: LJ "
+           f"and reaction field (eps_rf = infinity) both switched to zero between {ff['vdw_switch']:g} and "
+           f"{ff['cutoff']:g} nm (`vdw_modifier` and `coulomb_modifier` = \"potential-switch\"), neighbour skin "
+           f"{ff['neighbor_skin']:g} nm, the pair potential C^k at both ends of the switch for k = "
+           f"{', '.join(str(k) for k in sm['levels'])} (`switch_smoothness`; 2 is GROMACS's quintic "
+           f"potential-switch). vi solver tolerance {sm['solver_tolerance']:g} nm/ps "
+           f"(max_iterations {sm['max_iterations']}), constraint tolerance {sm['constraint_tolerance']:g}; energies "
+           f"every {sm['energy_interval'] * 1000:g} fs in every run. Each integrator runs its steps in turn until "
+           f"the first that is not stable or does not converge. The section's runs took "
+           f"{sm['run_minutes']:.1f} min of wall time.\n",
+           "![RMS fluctuation vs time step](smooth_rms.png)\n"]
+    rows, dts, stated = smooth_slopes(sm)
+    out.append(f"**Fitted slopes** of log(RMS fluctuation) vs log(dt) (study.energy.fit_order: the three smallest "
+               f"stable steps whose RMS fluctuation is above 10 x {num(sm['floor'], 2)} kJ/mol, the round-off and "
+               f"solver floor): " + ("; ".join(stated) if stated else "none (too few points)") + ".\n")
+    out.append(table(["smoothness", "integrator", "nominal order", "slope of RMS vs dt", "fitted over dt (fs)",
+                      "local slopes", "largest stable dt (fs)"] + [f"RMS at {fs(d)} fs (kJ/mol)" for d in dts], rows))
+    crossover_rows, summary = smooth_crossover_rows(sm)
+    fits = ", ".join(f"C{k}: cost ∝ error^-{level['rattle_fit'][1]:.2f}" for k, level in sm["levels"].items()
+                     if level["rattle_fit"])
+    out += ["![work-precision, smooth interactions](smooth_work_precision.png)\n",
+            "**RATTLE's equivalent cost** of every stable vi run: the wall time per ps RATTLE needs for the same RMS "
+            "fluctuation, interpolated in log-log between RATTLE's stable runs at the same smoothness where the "
+            "fluctuation lies in their range, else extrapolated with the power law fitted to them (study.energy."
+            f"equivalent_cost; RATTLE's measured laws: {fits or 'none'}; an exact dt² law is error^-0.50). "
+            "Crossover accuracy: the RMS fluctuation below which the vi is cheaper than RATTLE (study.energy."
+            "crossover).\n",
+            f"**Crossover:** {smooth_headline(sm, summary)}\n",
+            table(["smoothness", "integrator", "best RATTLE time / vi time", "at dt (fs)", "RMS fluct. (kJ/mol)",
+                   "vi wall s/ps", "RATTLE wall s/ps for it", "RATTLE's cost", "crossover accuracy", "command"],
+                  crossover_rows)]
+    for k, level in sm["levels"].items():
+        run_rows = []
+        for runs in level["series"].values():
+            for r in runs:
+                row = run_row(r)
+                e = r.get("rattle_equivalent")
+                extra = [num(e["wall_per_ps"], 3), _equivalent_text(e), num(e["ratio"], 3)] if e else ["-"] * 3
+                run_rows.append(row[:-1] + extra + row[-1:])
+        out.append(details(f"All runs at smoothness C{k} ({len(run_rows)})",
+                           table(RUN_HEADER[:-1] + ["RATTLE wall s/ps at this RMS", "RATTLE's cost",
+                                                    "RATTLE time / vi time", "command"], run_rows)))
+    out += ["### The price of smoothness\n", price_section(sm["price"])]
+    return "\n".join(out)
+
+
+def price_section(price):
+    if "skipped" in price:
+        return f"Not measured: {price['skipped']}.\n"
+    res = price["results"]
+    rows = []
+    for key, v in res.items():
+        if "error" in v:
+            rows.append([v["label"], v["error"]] + ["-"] * 6)
+            continue
+        d = f"{num(v['diffusion'], 3)} ± {num(v['diffusion_error'], 2)}" if v["diffusion"] is not None else "n/a"
+        diff = v.get("rdf_rms_vs_gromacs")
+        rows.append([v["label"], v["frames"], num(v["rdf_peak_r"]), num(v["rdf_peak_g"]),
+                     num(diff, 3) if diff is not None else "(reference)", d, num(v["temperature_engine"]),
+                     code(v["command"])])
+    switched, gromacs, own = (res.get(k, {}) for k in (SWITCHED_RATTLE.key, GMX_VARIANTS[0].key, RATTLE.key))
+    text = [f"`inputs/{price['system']}` ({price['atoms']} atoms): RATTLE with {price['note']} (smoothness "
+            f"C{price['smoothness']}), dt = {fs(price['dt'])} fs, {price['ps']:g} ps with the long runs' frames, "
+            f"held by a v-rescale thermostat (tau_t = {price['tau_t']:g} ps) at the GROMACS run's mean temperature, "
+            f"{price['temperature']:g} K (in NVE from the same start the switched box settles at another "
+            "temperature, which would move D by itself), set against the long runs' (section 4) unswitched reaction field: GROMACS's run (the reference) and "
+            "vimd's own RATTLE run (which separates the switch from the engine). Analyses and D's standard error as in "
+            "section 5.\n",
+            "![O-O RDF, switched and unswitched](smooth_rdf_oo.png)\n", "![MSD, switched and unswitched](smooth_msd.png)\n"]
+    if all("error" not in v and v.get("diffusion") is not None for v in (switched, gromacs)):
+        sentence = (f"Switching LJ and the reaction field changes the O-O RDF by an RMS difference of "
+                    f"{num(switched.get('rdf_rms_vs_gromacs'), 3)} against GROMACS's unswitched run")
+        if own.get("rdf_rms_vs_gromacs") is not None:
+            sentence += f" (vimd's unswitched run against it: {num(own['rdf_rms_vs_gromacs'], 3)})"
+        errors = [v["diffusion_error"] for v in (switched, gromacs)]
+        sentence += (f"; D = {num(switched['diffusion'], 3)} ± {num(errors[0], 2)} cm²/s switched against "
+                     f"{num(gromacs['diffusion'], 3)} ± {num(errors[1], 2)} cm²/s")
+        if None not in errors and any(errors):
+            sigma = abs(switched["diffusion"] - gromacs["diffusion"]) / (errors[0] ** 2 + errors[1] ** 2) ** 0.5
+            sentence += f", a difference of {num(sigma, 2)} combined standard errors"
+        text.append(sentence + ".\n")
+    text.append(table(["trajectory", "frames", "first peak r (nm)", "g(peak)", "RMS RDF difference to GROMACS",
+                       "D ± error (cm²/s)", "mean T, engine (K)", "command"], rows))
+    return "\n".join(text)
 
 
 # ---------------------------------------------------------------- closing note
@@ -354,14 +540,15 @@ def closing_note(scan, reference_dts):
     return "\n".join(out)
 
 
-def write(path, plan, meta, scan, order, long, md):
+def write(path, plan, meta, scan, order, long, md, smooth):
     quick_banner = ("> **Quick mode** (`--quick`): a smoke test with runs far too short for conclusions; the "
                     "committed full report is `validation/report/README.md`.\n\n" if plan.quick else "")
     text = [
         "# vimd validation study: RATTLE vs variational integrators, with MDAnalysis and GROMACS\n",
         quick_banner,
         f"Regenerated by `{meta['command']}` on {meta['date']} from git {meta['git']}; vimd binary "
-        f"`{meta['vimd']}` ({meta['vimd_state']}); {meta['threads']} OpenMP thread(s) per run. The runs took "
+        f"`{meta['vimd']}` ({meta['vimd_state']}); {meta['threads']} OpenMP thread(s) per run"
+        + (f" ({smooth['threads']} in section 6)" if smooth else "") + ". The runs took "
         f"{meta['run_minutes']:.1f} min of wall time"
         + (" when they ran (this invocation reused them: `--reuse`, same configs and binary)" if meta["reuse"]
            else f", the whole study {meta['minutes']:.1f} min")
@@ -375,7 +562,7 @@ def write(path, plan, meta, scan, order, long, md):
         "0. [Set-up and definitions](#set-up-and-definitions)\n1. [Energy drift and fluctuation vs time step]"
         "(#1-energy-drift-and-fluctuation-vs-time-step)\n2. [Work-precision](#2-work-precision)\n3. [Order study]"
         "(#3-order-study)\n4. [Long runs](#4-long-runs)\n5. [MDAnalysis analyses](#5-mdanalysis-analyses)\n"
-        "6. [Closing note](#closing-note)\n",
+        "6. [Smooth interactions](#6-smooth-interactions)\n7. [Closing note](#closing-note)\n",
         "## Set-up and definitions\n",
         "- **Energy drift**: slope of a least-squares line through the total energy of the run, per atom "
         "(kJ/mol/ps/atom). **RMS fluctuation**: root mean square of the total energy about that line (kJ/mol). "
@@ -403,6 +590,8 @@ def write(path, plan, meta, scan, order, long, md):
         long_section(long) if long else "Not run.\n",
         "## 5. MDAnalysis analyses\n",
         mdanalysis_section(md, long) if md else "Not run.\n",
+        "## 6. Smooth interactions\n",
+        smooth_section(smooth) if smooth else "Not run.\n",
         "## Closing note\n",
         closing_note(scan, meta["closing_dts"]),
     ]

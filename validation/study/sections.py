@@ -6,8 +6,8 @@ import numpy as np
 
 from gmx_common import ROOT
 from . import energy, figures, trajectories
-from .plan import (GMX_VARIANTS, LONG_VARIANTS, RATTLE, SCAN_VARIANTS, SYSTEMS, fs, order_variants, relative, rk,
-                   scan_length, vi)
+from .plan import (GMX_VARIANTS, LONG_VARIANTS, RATTLE, SCAN_VARIANTS, SWITCHED_RATTLE, SYSTEMS, fs, order_variants,
+                   relative, rk, scan_length, switched, vi)
 
 
 def energy_every(dt, interval):
@@ -179,6 +179,49 @@ def long_runs(runner, plan, report_dir, log):
             "dt": plan.long_dt, "ps": plan.long_ps, "frame_ps": frame * plan.long_dt, "runs": runs}
 
 
+def analyse_water(r, log):
+    """RDF, constraint deviations, MSD with D and temperature of one finished water run (vimd or
+    GROMACS): (numbers for the report, curves for the figures); (numbers with "error", None) when
+    MDAnalysis cannot open its trajectory."""
+    out = ROOT / r["out"]
+    names = ("confout.gro", "traj.trr") if r["kind"] == "vimd" else ("gmx.gro", "gmx.trr")
+    gro, trr = out / names[0], out / names[1]
+    log(f"[MDAnalysis] {r['label']}: Universe({relative(gro)}, {relative(trr)})")
+    try:
+        u = trajectories.water_universe(gro, trr)
+    except Exception as e:  # a trajectory MDAnalysis cannot open is a result to report
+        return {"label": r["label"], "error": f"MDAnalysis could not open it: {e}"}, None
+    r_, g, peak_r, peak_g = trajectories.rdf_oo(u)
+    dev = trajectories.constraint_deviations(u)
+    lags, msd_values, diffusion, window, diffusion_error = trajectories.msd_diffusion(u)
+    t, temp, dof = trajectories.temperature(u)
+    s = series_of(r)
+    curves = {"rdf": (r["label"], r_, g), "deviations": (r["label"], dev),
+              "msd": (r["label"], lags, msd_values, diffusion, window),
+              "temperature": (r["label"], t, temp, s["time"], s["temperature"]),
+              "constraint_rms": (r["label"], s["time"], s["constraint_rms"]) if "constraint_rms" in s else None,
+              "resolution": trajectories.float32_resolution(u)}
+    result = {"label": r["label"], "command": r["command"], "frames": len(u.trajectory),
+              "rdf_peak_r": peak_r, "rdf_peak_g": peak_g,
+              "dev_median": float(np.median(np.abs(dev))), "dev_max": float(np.max(np.abs(dev))),
+              "engine_constraint_rms_max": float(np.max(s["constraint_rms"])) if "constraint_rms" in s else None,
+              "diffusion": diffusion, "diffusion_error": diffusion_error,
+              "diffusion_blocks": trajectories.DIFFUSION_BLOCKS, "msd_window": window,
+              "temperature_mdanalysis": float(np.mean(temp)), "temperature_engine": float(np.mean(s["temperature"])),
+              "dof": dof}
+    return result, curves
+
+
+def rdf_rms_difference(rdf, reference):
+    """RMS difference of two O-O RDF curves (label, r, g) from 0.2 nm out (below, both are zero), or
+    None when they were binned differently."""
+    (_, ref_r, ref_g), (_, _, g) = reference, rdf
+    if len(g) != len(ref_g):
+        return None
+    mask = ref_r >= 0.2
+    return float(np.sqrt(np.mean((g[mask] - ref_g[mask]) ** 2)))
+
+
 def mdanalysis(long, report_dir, log):
     """RDF, constraint deviations, MSD and temperature of every finished long run and GROMACS's."""
     results, rdfs, deviations, rms, msds, temps = {}, {}, {}, {}, {}, {}
@@ -187,43 +230,136 @@ def mdanalysis(long, report_dir, log):
     for key, r in long["runs"].items():
         if "stats" not in r:
             continue
-        out = ROOT / r["out"]
-        names = ("confout.gro", "traj.trr") if r["kind"] == "vimd" else ("gmx.gro", "gmx.trr")
-        gro, trr = out / names[0], out / names[1]
-        log(f"[MDAnalysis] {r['label']}: Universe({relative(gro)}, {relative(trr)})")
-        try:
-            u = trajectories.water_universe(gro, trr)
-        except Exception as e:  # a trajectory MDAnalysis cannot open is a result to report
-            results[key] = {"label": r["label"], "error": f"MDAnalysis could not open it: {e}"}
+        results[key], curves = analyse_water(r, log)
+        if curves is None:
             continue
-        r_, g, peak_r, peak_g = trajectories.rdf_oo(u)
-        dev = trajectories.constraint_deviations(u)
-        lags, msd_values, diffusion, window = trajectories.msd_diffusion(u)
-        t, temp, dof = trajectories.temperature(u)
-        s = series_of(r)
-        resolution = trajectories.float32_resolution(u)
-        rdfs[key] = (r["label"], r_, g)
-        deviations[key] = (r["label"], dev)
-        msds[key] = (r["label"], lags, msd_values, diffusion, window)
-        temps[key] = (r["label"], t, temp, s["time"], s["temperature"])
-        if "constraint_rms" in s:
-            rms[key] = (r["label"], s["time"], s["constraint_rms"])
-        results[key] = {"label": r["label"], "command": r["command"], "frames": len(u.trajectory),
-                        "rdf_peak_r": peak_r, "rdf_peak_g": peak_g,
-                        "dev_median": float(np.median(np.abs(dev))), "dev_max": float(np.max(np.abs(dev))),
-                        "engine_constraint_rms_max":
-                            float(np.max(s["constraint_rms"])) if "constraint_rms" in s else None,
-                        "diffusion": diffusion, "msd_window": window, "temperature_mdanalysis": float(np.mean(temp)),
-                        "temperature_engine": float(np.mean(s["temperature"])), "dof": dof}
+        rdfs[key], deviations[key], msds[key], temps[key] = (curves[c] for c in ("rdf", "deviations", "msd",
+                                                                                 "temperature"))
+        if curves["constraint_rms"]:
+            rms[key] = curves["constraint_rms"]
+        resolution = curves["resolution"]
     if reference_key in rdfs:
-        ref_r, ref_g = rdfs[reference_key][1], rdfs[reference_key][2]
-        for key, (_, r_, g) in rdfs.items():
-            if key != reference_key and len(g) == len(ref_g):
-                mask = ref_r >= 0.2
-                results[key]["rdf_rms_vs_gromacs"] = float(np.sqrt(np.mean((g[mask] - ref_g[mask]) ** 2)))
+        for key, curve in rdfs.items():
+            difference = rdf_rms_difference(curve, rdfs[reference_key])
+            if key != reference_key and difference is not None:
+                results[key]["rdf_rms_vs_gromacs"] = difference
     if rdfs:
         figures.rdf(rdfs, reference_key, report_dir / "rdf_oo.png")
         figures.constraints(deviations, resolution, rms, report_dir / "constraint_deviations.png")
         figures.msd(msds, report_dir / "msd.png")
         figures.temperature(temps, report_dir / "temperature.png")
     return {"results": results, "resolution": resolution}
+
+
+# ------------------------------------------------------------------ 6: smooth interactions
+def exact_every(dt, interval):
+    """Steps between energy samples when `interval` must be a whole number of steps (every run of a
+    comparison sampled at the same times)."""
+    every = energy_every(dt, interval)
+    if abs(every * dt - interval) > 1e-9 * interval:
+        raise ValueError(f"study plan: energy interval {interval:g} ps is not a multiple of dt = {dt:g} ps")
+    return every
+
+
+def smooth(runner, plan, report_dir, log, long):
+    """Section 6: water with LJ and reaction field switched to zero smoothly (C^k pair potential),
+    RATTLE against the variational integrators at every smoothness of the plan: RMS fluctuation vs
+    dt with fitted slopes, wall time per ps, RATTLE's equivalent cost of every vi run and the
+    crossover; then what the switch does to the RDF and D (the price of smoothness)."""
+    started = runner.run_seconds
+    base = SYSTEMS[plan.smooth_system]
+    solver = {"solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations}
+    levels = {}
+    for k in sorted({entry.smoothness for entry in plan.smooth_series}):
+        system = switched(base, k)
+        tag = f"smooth-{base.name}-C{k}"
+        series = {}
+        for entry in (e for e in plan.smooth_series if e.smoothness == k):
+            v = entry.variant
+            log(f"[smooth C{k}] {v.label}")
+            series[v.key] = _sweep(lambda dt: runner.vimd(
+                system, v, dt, plan.smooth_ps, tag, exact_every(dt, plan.smooth_energy_interval_ps), 0,
+                solver if v.family == "vi" else None, tolerance=plan.constraint_tolerance,
+                stability_fraction=plan.stability_fraction, threads=plan.smooth_threads), entry.dts)
+        orders = {e.variant.key: e.variant.order for e in plan.smooth_series}
+        levels[k] = _smooth_level(system, series, orders, plan.smooth_floor)
+    figures.smooth_rms(levels, plan.smooth_floor, report_dir / "smooth_rms.png")
+    figures.smooth_work_precision(levels, report_dir / "smooth_work_precision.png")
+    price = price_of_smoothness(runner, plan, long, report_dir, log)
+    return {"system": base.name, "atoms": base.atoms, "ps": plan.smooth_ps, "threads": plan.smooth_threads,
+            "solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations,
+            "constraint_tolerance": plan.constraint_tolerance, "energy_interval": plan.smooth_energy_interval_ps,
+            "floor": plan.smooth_floor, "levels": levels, "price": price,
+            "run_minutes": (runner.run_seconds - started) / 60}
+
+
+def _smooth_level(system, series, orders, floor):
+    """Fitted slopes of RMS fluctuation vs dt, RATTLE's equivalent cost of every stable vi run and
+    the crossover of every vi against RATTLE in wall time per ps, at one smoothness."""
+    rattle = _points(series[RATTLE.key], "wall_per_ps")
+    front = energy.pareto(rattle)
+    fits, crossovers = {}, {}
+    for key, runs in series.items():
+        ok = [r for r in runs if r["status"] == "ok"]
+        slope, used, local = energy.fit_order([r["dt"] for r in ok], [r["stats"]["rms_fluctuation"] for r in ok],
+                                              floor)
+        fits[key] = {"order": orders[key], "slope": slope, "fit_dts": [p[0] for p in used], "local_slopes": local}
+        if key == RATTLE.key:
+            continue
+        for r in ok:
+            equivalent = energy.equivalent_cost(rattle, r["stats"]["rms_fluctuation"])
+            if equivalent is not None:
+                cost, basis = equivalent
+                r["rattle_equivalent"] = {"wall_per_ps": cost, "basis": basis, "ratio": cost / r["cost"]["wall_per_ps"]}
+        crossovers[key] = energy.crossover(rattle, _points(runs, "wall_per_ps"))
+    return {"smoothness": system.forcefield["switch_smoothness"], "forcefield": system.forcefield,
+            "note": system.note, "series": series, "fits": fits, "crossovers": crossovers,
+            "rattle_fit": energy.power_fit(front) if len(front) >= 2 else None}
+
+
+PRICE_TAU_T = 0.1  # ps: v-rescale leaves the dynamics of water nearly unchanged (Bussi, Donadio, Parrinello 2007)
+
+
+def price_of_smoothness(runner, plan, long, report_dir, log):
+    """The long runs' system with LJ and RF switched (RATTLE, same step, length and frames as the long
+    runs, held at the GROMACS run's mean temperature) against the long runs' GROMACS run (unswitched
+    reaction field) and vimd's own unswitched RATTLE run: O-O RDF and self-diffusion by the same
+    MDAnalysis code as section 5."""
+    reference_key = GMX_VARIANTS[0].key
+    if long is None:
+        return {"skipped": "the long-runs section was not run (--sections without long): its GROMACS run is "
+                           "the unswitched reference, so the switched run was not made either"}
+    if "stats" not in long["runs"][reference_key]:
+        return {"skipped": "GROMACS's long run (the unswitched reference) did not finish"}
+    # NVE from the long runs' start, the switched interactions heat the box (water216 at C4, 1 ps:
+    # 327 K mean against GROMACS's 288 K), which would move D more than the switch itself; a
+    # v-rescale thermostat holds the switched run at GROMACS's mean temperature instead.
+    temperature = round(float(np.mean(series_of(long["runs"][reference_key])["temperature"])), 1)
+    thermostat = {"thermostat": "v-rescale", "temperature": temperature, "tau_t": PRICE_TAU_T}
+    system = switched(SYSTEMS[long["system"]], plan.price_smoothness)
+    frame = max(1, int(round(long["frame_ps"] / long["dt"])))
+    log(f"[smooth] {SWITCHED_RATTLE.label} (C{plan.price_smoothness}), {long['ps']:g} ps at {temperature:g} K")
+    # with a thermostat the total energy is not conserved: the run is not judged by it
+    run = runner.vimd(system, SWITCHED_RATTLE, long["dt"], long["ps"], f"smooth-price-{system.name}", 5, frame,
+                      thermostat, tolerance=plan.constraint_tolerance, timeout=6 * 3600,
+                      stability_fraction=math.inf, threads=plan.smooth_threads)
+    out = {"system": system.name, "atoms": system.atoms, "note": system.note, "smoothness": plan.price_smoothness,
+           "dt": long["dt"], "ps": long["ps"], "temperature": temperature, "tau_t": PRICE_TAU_T, "run": run,
+           "results": {}}
+    compared = {SWITCHED_RATTLE.key: run} | {k: long["runs"][k] for k in (reference_key, RATTLE.key)}
+    rdfs, msds = {}, {}
+    for key, r in compared.items():
+        if "stats" not in r:
+            out["results"][key] = {"label": r["label"], "error": f"no finished run ({r['status']}: {r.get('message')})"}
+            continue
+        out["results"][key], curves = analyse_water(r, log)
+        if curves is not None:
+            rdfs[key], msds[key] = curves["rdf"], curves["msd"]
+    if reference_key in rdfs:
+        for key, curve in rdfs.items():
+            if key != reference_key:
+                out["results"][key]["rdf_rms_vs_gromacs"] = rdf_rms_difference(curve, rdfs[reference_key])
+    if rdfs:
+        figures.rdf(rdfs, reference_key, report_dir / "smooth_rdf_oo.png")
+        figures.msd(msds, report_dir / "smooth_msd.png")
+    return out

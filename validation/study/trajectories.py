@@ -81,14 +81,12 @@ def unwrapped_oxygens(u):
     return merged
 
 
-def msd_diffusion(u, fit_window=(0.1, 0.5)):
-    """O mean-square displacement (nm^2) against lag time (ps) and the diffusion coefficient from the
-    Einstein relation D = slope / 6, the slope fitted over lag times between fit_window[0] and
-    fit_window[1] of the trajectory length. Returns (lags, msd, D in cm^2/s, fit range in ps)."""
-    merged = unwrapped_oxygens(u)
-    msd = EinsteinMSD(merged, select="all", msd_type="xyz", fft=False).run()
-    times = frame_times(u)
-    lags = times[: len(msd.results.timeseries)] - times[0]
+def _einstein(merged, times, fit_window, start=None, stop=None):
+    """MSD (nm^2) against lag (ps) over frames start:stop and D (cm^2/s) fitted between fit_window[0]
+    and fit_window[1] of that stretch's length (None with fewer than two lags in the window)."""
+    msd = EinsteinMSD(merged, select="all", msd_type="xyz", fft=False).run(start=start, stop=stop)
+    span = times[start:stop]
+    lags = span[: len(msd.results.timeseries)] - span[0]
     values = msd.results.timeseries / 100.0
     length = lags[-1]
     mask = (lags >= fit_window[0] * length) & (lags <= fit_window[1] * length)
@@ -96,6 +94,25 @@ def msd_diffusion(u, fit_window=(0.1, 0.5)):
         return lags, values, None, None
     slope = np.polyfit(lags[mask], values[mask], 1)[0]
     return lags, values, float(slope / 6.0 * 1e-2), (float(lags[mask][0]), float(lags[mask][-1]))
+
+
+DIFFUSION_BLOCKS = 4  # consecutive blocks of a trajectory for the error of D
+
+
+def msd_diffusion(u, fit_window=(0.1, 0.5), blocks=DIFFUSION_BLOCKS):
+    """O mean-square displacement (nm^2) against lag time (ps) and the diffusion coefficient from the
+    Einstein relation D = slope / 6, the slope fitted over lag times between fit_window[0] and
+    fit_window[1] of the trajectory length; its error is the standard error of D over `blocks`
+    consecutive blocks of the trajectory, each fitted the same way. Returns (lags, msd, D in cm^2/s,
+    fit range in ps, error of D in cm^2/s or None)."""
+    merged = unwrapped_oxygens(u)
+    times = frame_times(u)
+    lags, values, diffusion, window = _einstein(merged, times, fit_window)
+    edges = np.linspace(0, len(times), blocks + 1).astype(int)
+    per_block = [_einstein(merged, times, fit_window, a, b)[2] for a, b in zip(edges, edges[1:]) if b - a >= 3]
+    error = (float(np.std(per_block, ddof=1) / np.sqrt(len(per_block)))
+             if len(per_block) >= 2 and None not in per_block else None)
+    return lags, values, diffusion, window, error
 
 
 def temperature(u, constraints_per_molecule=3):
