@@ -4,8 +4,11 @@ total-energy drift per atom (linear fit), the same drift over four blocks (a sta
 drift that comes and goes shows there), and RMS fluctuation, same analysis for both.
 Water boxes: gmx_d md-vv with SETTLE, reaction field. `--system polymer`: the Kremer-Grest melt
 (every bond rigid, WCA), gmx_d md with SHAKE 1e-8 (md-vv has no SHAKE), vimd at tolerance 1e-12;
-its defaults are dt = 5 fs and 100 ps.
-Usage: /usr/bin/python3 validation/gromacs_nve.py [--system water900|polymer] [--ps 20] [--dt 0.002]
+its defaults are dt = 5 fs and 100 ps; `--gmx-vv` runs GROMACS's velocity Verlet instead (md-vv, with
+LINCS of order 12 and 4 iterations: the integrator of vimd's RATTLE, with another constraint solver).
+A single run's drift is mostly its random walk; `--seeds N` gives each engine N independent starts.
+Usage: /usr/bin/python3 validation/gromacs_nve.py [--system water900|polymer] [--ps 20] [--dt 0.002] [--gmx-vv]
+                                                  [--seeds N]
 """
 import argparse
 import json
@@ -52,42 +55,83 @@ def main():
     ap.add_argument("--dt", type=float, help="time step (default: 0.002 ps for water, 0.005 ps for the polymer)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--keep", help="directory to keep the runs in (default: temporary)")
+    ap.add_argument("--seeds", type=int, default=0,
+                    help="N independent starts (velocities drawn at 300 K by each engine) instead of conf.gro's: "
+                         "mean drift and its standard error per engine")
+    ap.add_argument("--gmx-vv", action="store_true",
+                    help="polymer: GROMACS md-vv with LINCS (order 12, 4 iterations) instead of md with SHAKE")
     args = ap.parse_args()
     src = ROOT / "inputs" / args.system
     setup = POLYMER if args.system == "polymer" else WATER
+    if args.gmx_vv and setup is POLYMER:
+        gmx = {k: v for k, v in POLYMER["gmx"].items() if k != "shake_tol"}
+        gmx.update(integrator="md-vv", constraint_algorithm="lincs", lincs_order=12, lincs_iter=4)
+        setup = POLYMER | dict(gmx=gmx, label=POLYMER["label"].replace("md + SHAKE 1e-8", "md-vv + LINCS 12/4"))
     args.dt = args.dt or setup["dt"]
     args.ps = args.ps or setup["ps"]
-    steps = int(round(args.ps / args.dt))
-
+    atoms = int((src / "conf.gro").read_text().splitlines()[1])
+    gmx_name = f"gmx_d {setup['gmx']['integrator']}"
+    print(f"NVE, {args.system} ({atoms} atoms), dt = {args.dt} ps, {args.ps} ps, {setup['label']}")
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(args.keep or tmp)
+        if not args.seeds:
+            v, g = run_both(work, src, src / "conf.gro", setup, args, atoms, seed=None)
+            print(f"{'engine':<28}{'drift kJ/mol/ps/atom':>22}{'RMS fluct. kJ/mol':>20}   drift in 4 blocks")
+            print(f"{'vimd rattle (summary)':<28}{v['summary_drift']:>22.3e}{v['summary_rms']:>20.4e}")
+            for name, r in (("vimd rattle (this script)", v), (gmx_name, g)):
+                print(f"{name:<28}{r['drift']:>22.3e}{r['fluct']:>20.4e}   " + " ".join(f"{b:+.1e}" for b in r["blocks"]))
+            return 0
+        # Independent starts: the positions of conf.gro, velocities drawn by each engine at 300 K.
         work.mkdir(parents=True, exist_ok=True)
-        write_mdp(work / "nve.mdp", dt=args.dt, nsteps=steps, nstcalcenergy=10, nstenergy=10,
-                  nstlog=1000, comm_mode="None", tcoupl="no", pcoupl="no", gen_vel="no", continuation="no",
-                  **setup["gmx"])
-        run(["gmx_d", "grompp", "-f", "nve.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "nve.tpr", "-maxwarn", "2"], work)
-        run(["gmx_d", "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off"], work)
-        g = gmx_energy("gmx_d", "gmx_nve.edr", ["Total-Energy"], work)
-        atoms = int((src / "conf.gro").read_text().splitlines()[1])
-        gmx_drift, gmx_fluct = statistics(g["time"], g["Total Energy"], atoms)
-        gmx_blocks = block_drifts(g["time"], g["Total Energy"], atoms)
-
-        vimd_config(work / "nve.toml", src / "conf.gro", src / "topol.top", setup["ff"],
-                    dict(type="rattle", dt=args.dt, steps=steps, constraint_tolerance=setup["tolerance"]),
-                    dict(dir=str(work / "vimd"), trajectory_every=0, energy_every=10))
-        vimd("run", work / "nve.toml", threads=args.threads)
-        summary = json.loads((work / "vimd" / "summary.json").read_text())
-        legends, cols = read_xvg(work / "vimd" / "energy.xvg")
-        v_drift, v_fluct = statistics(cols[0], cols[1 + legends.index("total")], atoms)
-        v_blocks = block_drifts(cols[0], cols[1 + legends.index("total")], atoms)
-
-    print(f"NVE, {args.system} ({atoms} atoms), dt = {args.dt} ps, {args.ps} ps, {setup['label']}")
-    print(f"{'engine':<28}{'drift kJ/mol/ps/atom':>22}{'RMS fluct. kJ/mol':>20}   drift in 4 blocks")
-    print(f"{'vimd rattle (summary)':<28}{summary['drift_per_atom']:>22.3e}{summary['rms_fluctuation']:>20.4e}")
-    for name, drift, fluct, blocks in (("vimd rattle (this script)", v_drift, v_fluct, v_blocks),
-                                       (f"gmx_d {setup['gmx']['integrator']}", gmx_drift, gmx_fluct, gmx_blocks)):
-        print(f"{name:<28}{drift:>22.3e}{fluct:>20.4e}   " + " ".join(f"{b:+.1e}" for b in blocks))
+        lines = (src / "conf.gro").read_text().splitlines()
+        start = work / "positions.gro"
+        start.write_text("\n".join(lines[:2] + [line[:44] for line in lines[2:-1]] + lines[-1:]) + "\n")
+        print(f"{args.seeds} starts from conf.gro's positions with velocities drawn at 300 K (seed = 1..{args.seeds}); "
+              "drift kJ/mol/ps/atom")
+        drifts = {"vimd rattle": [], gmx_name: []}
+        for seed in range(1, args.seeds + 1):
+            v, g = run_both(work / f"seed{seed}", src, start, setup, args, atoms, seed=seed)
+            drifts["vimd rattle"].append(v["drift"])
+            drifts[gmx_name].append(g["drift"])
+            print(f"  seed {seed}: vimd rattle {v['drift']:+.3e} (RMS {v['fluct']:.3e}), "
+                  f"{gmx_name} {g['drift']:+.3e} (RMS {g['fluct']:.3e})", flush=True)
+        for name, d in drifts.items():
+            d = np.asarray(d)
+            print(f"{name:<28} mean {d.mean():+.3e} +- {d.std(ddof=1) / np.sqrt(len(d)):.1e} (standard error), "
+                  f"spread {d.std(ddof=1):.1e}")
     return 0
+
+
+def run_both(work, src, structure, setup, args, atoms, seed):
+    """Both engines from `structure` (its velocities, or drawn at 300 K with `seed`): drift,
+    fluctuation and block drifts of each."""
+    steps = int(round(args.ps / args.dt))
+    work.mkdir(parents=True, exist_ok=True)
+    velocities = dict(gen_vel="no") if seed is None else dict(gen_vel="yes", gen_temp=300, gen_seed=seed)
+    write_mdp(work / "nve.mdp", dt=args.dt, nsteps=steps, nstcalcenergy=10, nstenergy=10,
+              nstlog=1000, comm_mode="None", tcoupl="no", pcoupl="no", continuation="no",
+              **velocities, **setup["gmx"])
+    run(["gmx_d", "grompp", "-f", "nve.mdp", "-c", structure, "-p", src / "topol.top", "-o", "nve.tpr", "-maxwarn", "2"], work)
+    run(["gmx_d", "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off"], work)
+    e = gmx_energy("gmx_d", "gmx_nve.edr", ["Total-Energy"], work)
+    gmx = analyse(e["time"], e["Total Energy"], atoms)
+
+    integrator = dict(type="rattle", dt=args.dt, steps=steps, constraint_tolerance=setup["tolerance"])
+    if seed is not None:
+        integrator.update(temperature=300.0, seed=seed)
+    vimd_config(work / "nve.toml", structure, src / "topol.top", setup["ff"], integrator,
+                dict(dir=str(work / "vimd"), trajectory_every=0, energy_every=10))
+    vimd("run", work / "nve.toml", threads=args.threads)
+    summary = json.loads((work / "vimd" / "summary.json").read_text())
+    legends, cols = read_xvg(work / "vimd" / "energy.xvg")
+    ours = analyse(cols[0], cols[1 + legends.index("total")], atoms)
+    ours.update(summary_drift=summary["drift_per_atom"], summary_rms=summary["rms_fluctuation"])
+    return ours, gmx
+
+
+def analyse(t, e, atoms):
+    drift, fluct = statistics(t, e, atoms)
+    return dict(drift=drift, fluct=fluct, blocks=block_drifts(t, e, atoms))
 
 
 if __name__ == "__main__":
