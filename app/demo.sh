@@ -24,5 +24,17 @@ for label, d in rows:
     print(f"{label:<18}{s['drift_per_atom']:>22.3e}{s['rms_fluctuation']:>19.3e}"
           f"{1e3 * s['wall_seconds'] / s['steps']:>10.2f}{s['force_evaluations_per_step']:>18.2f}"
           f"{s['hessian_evaluations_per_step']:>11.2f}")
+# RATTLE's RMS fluctuation grows as dt^2 (measured slope 2.0: validation/report, section 6): the step
+# it would need to fluctuate as little as vi, and what that costs per simulated ps.
+rattle, vi = (json.loads((out / d / "summary.json").read_text()) for d in ("rattle", "vi_rk4"))
+if vi["rms_fluctuation"] < rattle["rms_fluctuation"]:
+    scale = (vi["rms_fluctuation"] / rattle["rms_fluctuation"]) ** 0.5
+    per_ps = lambda s, dt: s["wall_seconds"] / s["steps"] / dt
+    rattle_cost = per_ps(rattle, rattle["dt"] * scale)
+    vi_cost = per_ps(vi, vi["dt"])
+    cheaper = (f"vi is {rattle_cost / vi_cost:.2g}x cheaper" if rattle_cost > vi_cost
+               else f"RATTLE is still {vi_cost / rattle_cost:.2g}x cheaper")
+    print(f"\nRATTLE would need dt = {1e3 * rattle['dt'] * scale:.3g} fs to fluctuate as little as vi "
+          f"(RMS ~ dt^2): {rattle_cost:.1f} s per simulated ps against vi's {vi_cost:.1f} s; {cheaper}")
 print(f"\ntrajectories, energies (.xvg/.csv) and final structures are in {out}/*/")
 PY
