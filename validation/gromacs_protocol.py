@@ -8,7 +8,7 @@ rvdw = rcoulomb = 0.9 nm, LJ potential-shift) and rigid water (vimd: constraints
   2. equilibrates 20 ps at 300 K from its own minimised structure, velocities generated at 300 K,
      v-rescale thermostat with tau_t 0.1 ps, 2 fs: vimd run_nvt.toml (RATTLE) / gmx md (leap-frog);
   3. runs 10 ps NVE at 2 fs from its own equilibrated state: vimd run_nve.toml (RATTLE) and the same
-     with type = "vi", method = "rk4", bias = [0, 1] (as inputs/water900/run_vi.toml, default
+     with type = "vi", method = "rk4", bias = [0, 1] (default
      tolerances) / gmx md (leap-frog) and gmx md-vv (velocity Verlet).
 and prints the final figures of each stage in one table per stage, then every command it ran.
 
@@ -20,7 +20,7 @@ mean energies differ by about the canonical spread of the total energy (printed 
 the two vimd NVE runs start from the same state and must agree with each other. vimd continues from
 its confout.gro (.gro precision, re-constrained by the engine), GROMACS from nvt.cpt (exact). With LJ
 potential-shift the force jumps at the cut-off, so vi rk4's higher order does not carry over to its
-long-time energy error here (inputs/water900/run_vi.toml uses potential-switch for that reason).
+long-time energy error here (inputs/water900/run_vi.toml switches LJ and Coulomb for that reason).
 Drift = slope of a linear fit of the conserved energy (vimd `conserved` column, GROMACS "Conserved
 En."; in NVE the total energy), per atom; RMS fluctuation = about the mean; both from the energy files
 (every 10 steps) with the same code for both engines. Everything runs on one thread.

@@ -28,7 +28,8 @@ def git_state():
     def git(*args):
         return subprocess.run(["git", *args], cwd=ROOT, text=True, capture_output=True).stdout.strip()
     rev = git("rev-parse", "--short", "HEAD") or "unknown"
-    dirty = git("status", "--porcelain", "--untracked-files=no")
+    # The report's own files are being rewritten by this run: they do not make the source dirty.
+    dirty = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)validation/report")
     return rev + (" (with uncommitted changes)" if dirty else "")
 
 
