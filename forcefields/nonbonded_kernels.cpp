@@ -37,7 +37,9 @@ HWY_INLINE void load_half(const PairView& d, int h, HalfData& hi) {
   }
 }
 
-template <VdwModifier M, bool kCoulomb, CoulombModifier C>
+// kSharedSwitch: LJ and Coulomb are switched by the same S (same r_switch and smoothness); the
+// switch is then applied once, to their sum, instead of once for each.
+template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch>
 void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy, double* fz,
                   double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
@@ -74,13 +76,25 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
           const SimdDouble rinv = simd_rsqrt(r2s);
           const SimdDouble rinv2 = rinv * rinv;
           SimdDouble v, g;
-          lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
-          e_lj += keep(inside, v);
-          if constexpr (kCoulomb) {
-            SimdDouble vc, gc;
-            rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
-            e_coulomb += keep(inside, vc);
-            g += gc;
+          if constexpr (kSharedSwitch) {
+            const SimdDouble r = r2s * rinv;
+            lj_energy_force<VdwModifier::none>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r,
+                                               v, g);
+            SimdDouble vc, gc, s, ds;
+            rf_energy_force<CoulombModifier::none>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
+            switch_value_slope(d.lj.sw, r, s, ds);
+            g = (g + gc) * s - (v + vc) * ds * rinv;
+            e_lj += keep(inside, v * s);
+            e_coulomb += keep(inside, vc * s);
+          } else {
+            lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
+            e_lj += keep(inside, v);
+            if constexpr (kCoulomb) {
+              SimdDouble vc, gc;
+              rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
+              e_coulomb += keep(inside, vc);
+              g += gc;
+            }
           }
           g = keep(inside, g);
           const SimdDouble gx = g * dx, gy = g * dy, gz = g * dz;
@@ -110,7 +124,7 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
 
 // Per pair a u_ij + b (d·u_ij) d. Skipped rows contribute exact zeros, so the list's masks and a
 // force pass's inside masks give identical results.
-template <VdwModifier M, bool kCoulomb, CoulombModifier C>
+template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch>
 void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
                     int h0, int h1, double* ox, double* oy, double* oz) {
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
@@ -151,12 +165,26 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           const SimdDouble rinv = simd_rsqrt(r2s);
           const SimdDouble rinv2 = rinv * rinv;
           SimdDouble a, b;
-          lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
-          if constexpr (kCoulomb) {
-            SimdDouble ac, bc;
-            rf_hessian<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, ac, bc);
+          if constexpr (kSharedSwitch) {
+            // The coefficients of U = U_LJ + U_Coulomb unswitched, then of U·S.
+            const SimdDouble r = r2s * rinv, c6 = simd_load(hi.c6[ii] + jb), c12 = simd_load(hi.c12[ii] + jb),
+                             qq = hi.q[ii] * simd_load(d.charge + jb);
+            SimdDouble u, u_coulomb, ac, bc, unused;
+            lj_hessian<VdwModifier::none>(d.lj, c6, c12, rinv2, r, a, b);
+            rf_hessian<CoulombModifier::none>(d.rf, qq, rinv, r2s, ac, bc);
+            lj_energy_force<VdwModifier::none>(d.lj, c6, c12, rinv2, r, u, unused);
+            rf_energy_force<CoulombModifier::none>(d.rf, qq, rinv, r2s, u_coulomb, unused);
             a += ac;
             b += bc;
+            apply_switch_hessian(d.lj.sw, u + u_coulomb, r, rinv, a, b);
+          } else {
+            lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
+            if constexpr (kCoulomb) {
+              SimdDouble ac, bc;
+              rf_hessian<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, ac, bc);
+              a += ac;
+              b += bc;
+            }
           }
           a = keep(inside, a);
           b = keep(inside, b);
@@ -214,13 +242,13 @@ template <bool kCoulomb, CoulombModifier C>
 ForceKernel force_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return force_halves<VdwModifier::none, kCoulomb, C>;
+      return force_halves<VdwModifier::none, kCoulomb, C, false>;
     case VdwModifier::potential_shift:
-      return force_halves<VdwModifier::potential_shift, kCoulomb, C>;
+      return force_halves<VdwModifier::potential_shift, kCoulomb, C, false>;
     case VdwModifier::force_switch:
-      return force_halves<VdwModifier::force_switch, kCoulomb, C>;
+      return force_halves<VdwModifier::force_switch, kCoulomb, C, false>;
     case VdwModifier::potential_switch:
-      return force_halves<VdwModifier::potential_switch, kCoulomb, C>;
+      return force_halves<VdwModifier::potential_switch, kCoulomb, C, false>;
   }
   return nullptr;
 }
@@ -229,13 +257,13 @@ template <bool kCoulomb, CoulombModifier C>
 HessianKernel hessian_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return hessian_halves<VdwModifier::none, kCoulomb, C>;
+      return hessian_halves<VdwModifier::none, kCoulomb, C, false>;
     case VdwModifier::potential_shift:
-      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C>;
+      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C, false>;
     case VdwModifier::force_switch:
-      return hessian_halves<VdwModifier::force_switch, kCoulomb, C>;
+      return hessian_halves<VdwModifier::force_switch, kCoulomb, C, false>;
     case VdwModifier::potential_switch:
-      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C>;
+      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C, false>;
   }
   return nullptr;
 }
@@ -244,12 +272,16 @@ HessianKernel hessian_kernel_of(VdwModifier m) {
 
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
 // Without Coulomb the Coulomb modifier is irrelevant: one instantiation.
-ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c) {
+ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+  if (shared_switch)
+    return force_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true>;
   if (!coulomb) return force_kernel_of<false, CoulombModifier::none>(m);
   return c == CoulombModifier::potential_switch ? force_kernel_of<true, CoulombModifier::potential_switch>(m)
                                                 : force_kernel_of<true, CoulombModifier::none>(m);
 }
-HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c) {
+HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+  if (shared_switch)
+    return hessian_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true>;
   if (!coulomb) return hessian_kernel_of<false, CoulombModifier::none>(m);
   return c == CoulombModifier::potential_switch ? hessian_kernel_of<true, CoulombModifier::potential_switch>(m)
                                                 : hessian_kernel_of<true, CoulombModifier::none>(m);
@@ -277,14 +309,16 @@ HWY_EXPORT(Lanes);
 
 namespace simd {
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier) {
-  const ForceKernel kernel = HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier);
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch) {
+  const ForceKernel kernel = HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch);
   if (!kernel) throw std::logic_error("unknown VdwModifier");
   return kernel;
 }
 
-HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier) {
-  const HessianKernel kernel = HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier);
+HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                             bool shared_switch) {
+  const HessianKernel kernel =
+      HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch);
   if (!kernel) throw std::logic_error("unknown VdwModifier");
   return kernel;
 }

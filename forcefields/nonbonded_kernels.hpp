@@ -47,9 +47,11 @@ using HessianKernel = void (*)(const PairView&, const double* ux, const double* 
 
 namespace simd {
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier);
+// shared_switch: LJ and Coulomb both potential-switch with the same r_switch and smoothness (then
+// the switch is evaluated once per pair, for their sum).
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
 MaskKernel mask_kernel();
-HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier);
+HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
 std::string target_name();

@@ -86,6 +86,9 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch, config.switch_smoothness)),
       rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
                               config.coulomb_modifier, config.coulomb_switch, config.switch_smoothness)),
+      shared_switch_(modifier_ == VdwModifier::potential_switch && rf_.kind == CoulombKind::reaction_field &&
+                     rf_.modifier == CoulombModifier::potential_switch && rf_.sw.r_switch == lj_.sw.r_switch &&
+                     rf_.sw.smoothness == lj_.sw.smoothness),
       cutoff2_(config.cutoff * config.cutoff),
       n_types_(static_cast<int>(system.c6.rows())),
       charge_(system.charge),
@@ -248,7 +251,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   prepare(q);
   const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb, rf_.modifier);
+  const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();
@@ -282,7 +285,7 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   prepare(q);
   const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier);
+  const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const auto& half_start = list_.half_start();

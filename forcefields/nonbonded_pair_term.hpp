@@ -72,6 +72,7 @@ class NonbondedPairTerm : public ForceTerm {
   VdwModifier modifier_;
   LjConstants lj_;
   ReactionField rf_;
+  bool shared_switch_;  // LJ and Coulomb switched by the same S: the kernels switch their sum once
   double cutoff2_;
   double self_energy_ = 0;
   int n_types_;

@@ -31,18 +31,23 @@ inline T power(T x, int n) {
 }
 }  // namespace switch_detail
 
-// φ = U·S from U and g = −U'/r (on input) to φ and g = −φ'/r (on output); r ≤ cutoff.
+// S and S' at r (r ≤ cutoff).
 template <class T>
-inline void apply_switch_energy_force(const SwitchFunction& sw, T r, T rinv, T& v, T& g) {
+inline void switch_value_slope(const SwitchFunction& sw, T r, T& s, T& ds) {
   const int k = sw.smoothness;
   const T x = positive_part(r - sw.r_switch);
   const T xk = switch_detail::power(x, k);
-  const T s = 1.0 + switch_detail::polynomial(sw.value.data(), k, x) * xk * x;
-  const T ds = switch_detail::polynomial(sw.slope.data(), k, x) * xk;
+  s = 1.0 + switch_detail::polynomial(sw.value.data(), k, x) * xk * x;
+  ds = switch_detail::polynomial(sw.slope.data(), k, x) * xk;
+}
+// φ = U·S from U and g = −U'/r (on input) to φ and g = −φ'/r (on output); r ≤ cutoff.
+template <class T>
+inline void apply_switch_energy_force(const SwitchFunction& sw, T r, T rinv, T& v, T& g) {
+  T s, ds;
+  switch_value_slope(sw, r, s, ds);
   g = g * s - v * ds * rinv;
   v = v * s;
 }
-
 // The Hessian coefficients of φ = U·S from those of U (a = U'/r, b = (U'' − U'/r)/r², in place)
 // and U itself: φ' = U'S + US', φ'' = U''S + 2U'S' + US''.
 template <class T>
@@ -57,7 +62,6 @@ inline void apply_switch_hessian(const SwitchFunction& sw, T u, T r, T rinv, T& 
   b = b * s + (2.0 * a * r * ds + u * dds - u * ds * rinv) * rinv * rinv;
   a = a * s + u * ds * rinv;
 }
-
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd
 HWY_AFTER_NAMESPACE();

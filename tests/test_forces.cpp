@@ -299,6 +299,7 @@ std::vector<SwitchCase> switch_cases() {
     for (const char* vdw : {"none", "potential-shift", "force-switch", "potential-switch"})
       for (const char* modifier : {"none", "potential-switch"}) cases.push_back({vdw, "reaction-field", modifier, k, 0.6});
   for (int k : {2, 5}) {
+    cases.push_back({"potential-switch", "reaction-field", "potential-switch", k, 0.7});  // LJ's switch: shared
     cases.push_back({"potential-switch", "cutoff", "potential-switch", k, 0.6});
     cases.push_back({"potential-switch", "reaction-field", "potential-switch", k, 0.05});
   }
@@ -310,7 +311,9 @@ INSTANTIATE_TEST_SUITE_P(EveryCombination, SwitchedPairTermDerivatives, ::testin
                            const SwitchCase& c = info.param;
                            std::string name = c.vdw + "_" + c.coulomb + "_" + c.coulomb_modifier + "_k" +
                                               std::to_string(c.smoothness) +
-                                              (c.coulomb_switch < 0.1 ? "_from_0_05" : "");
+                                              (c.coulomb_switch < 0.1   ? "_from_0_05"
+                                               : c.coulomb_switch == 0.7 ? "_shared_switch"
+                                                                         : "");
                            for (char& ch : name)
                              if (ch == '-') ch = '_';
                            return name;

@@ -192,6 +192,16 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
         NonbondedPairTerm term(system, testing::pair_config(modifier, coulomb, 0.0));
         expect_matches_brute_force(term, system, q, target + " " + modifier + " " + coulomb);
       }
+    // Both switched: by the same S (one switch for the sum, 0.7 nm) and by different ones.
+    for (double coulomb_switch : {0.7, 0.6}) {
+      auto config = testing::pair_config("potential-switch", "reaction-field", 0.0);
+      config.coulomb_modifier = "potential-switch";
+      config.coulomb_switch = coulomb_switch;
+      config.switch_smoothness = 4;
+      NonbondedPairTerm term(system, config);
+      expect_matches_brute_force(term, system, q, target + " LJ and Coulomb switched, Coulomb from " +
+                                                      std::to_string(coulomb_switch));
+    }
   }
   simd::use_target("");
   EXPECT_EQ(simd::target_name(), targets.front());
