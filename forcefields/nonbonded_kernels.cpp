@@ -83,9 +83,11 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
             SimdDouble vc, gc, s, ds;
             rf_energy_force<CoulombModifier::none>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
             switch_value_slope(d.lj.sw, r, s, ds);
-            g = (g + gc) * s - (v + vc) * ds * rinv;
-            e_lj += keep(inside, v * s);
-            e_coulomb += keep(inside, vc * s);
+            apply_switch_factors(s, ds, rinv, v, g);
+            apply_switch_factors(s, ds, rinv, vc, gc);
+            e_lj += keep(inside, v);
+            e_coulomb += keep(inside, vc);
+            g += gc;
           } else {
             lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
             e_lj += keep(inside, v);

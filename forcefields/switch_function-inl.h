@@ -40,13 +40,18 @@ inline void switch_value_slope(const SwitchFunction& sw, T r, T& s, T& ds) {
   s = 1.0 + switch_detail::polynomial(sw.value.data(), k, x) * xk * x;
   ds = switch_detail::polynomial(sw.slope.data(), k, x) * xk;
 }
-// φ = U·S from U and g = −U'/r (on input) to φ and g = −φ'/r (on output); r ≤ cutoff.
+// φ = U·S from U and g = −U'/r (on input) to φ and g = −φ'/r (on output), given S and S' at r.
+template <class T>
+inline void apply_switch_factors(T s, T ds, T rinv, T& v, T& g) {
+  g = g * s - v * ds * rinv;
+  v = v * s;
+}
+// The same, evaluating S and S' at r ≤ cutoff.
 template <class T>
 inline void apply_switch_energy_force(const SwitchFunction& sw, T r, T rinv, T& v, T& g) {
   T s, ds;
   switch_value_slope(sw, r, s, ds);
-  g = g * s - v * ds * rinv;
-  v = v * s;
+  apply_switch_factors(s, ds, rinv, v, g);
 }
 // The Hessian coefficients of φ = U·S from those of U (a = U'/r, b = (U'' − U'/r)/r², in place)
 // and U itself: φ' = U'S + US', φ'' = U''S + 2U'S' + US''.
