@@ -20,6 +20,7 @@
 #include "engine/stop.hpp"
 #include "forcefields/lennard_jones.hpp"
 #include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded_pair_term.hpp"
 #include "forcefields/reaction_field.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
@@ -118,6 +119,7 @@ RunIdentity run_identity(const System& s, const RunConfig& c, long summary_every
           {"epsilon_r", text(f.epsilon_r)},
           {"epsilon_rf", text(f.epsilon_rf)},
           {"neighbor_skin", text(f.neighbor_skin)},
+          {"neighbor_search_skin", f.neighbor_search_skin ? text(*f.neighbor_search_skin) : "(automatic)"},
           {"trajectory_every", std::to_string(c.output.trajectory_every)},
           {"energy_every", std::to_string(c.output.energy_every)},
           {"summary sampling (steps)", std::to_string(summary_every)}};
@@ -291,6 +293,21 @@ std::string describe_smoothness(const ForceFieldConfig& ff) {
   return lj + coulomb;
 }
 
+// The pair list as the run will use it (the search skin may be automatic).
+std::string describe_pair_list(const ForceField& field) {
+  char buf[200];
+  for (const auto& term : field.terms())
+    if (const auto* pairs = dynamic_cast<const NonbondedPairTerm*>(term.get())) {
+      if (pairs->search_skin() > pairs->skin())
+        std::snprintf(buf, sizeof buf, "pair list: skin %g nm, pruned from a search with skin %g nm", pairs->skin(),
+                      pairs->search_skin());
+      else
+        std::snprintf(buf, sizeof buf, "pair list: skin %g nm, not pruned", pairs->skin());
+      return buf;
+    }
+  return "no pair list";
+}
+
 int check_command(const fs::path& config_file) {
   std::unique_ptr<Model> model = load_and_warn(config_file);
   const Model& m = *model;
@@ -329,9 +346,9 @@ int check_command(const fs::path& config_file) {
   if (has_velocities && !m.input.velocities_generated)
     std::printf(", velocities by up to %.3g nm/ps", moved.velocity_change);
   std::printf("\n");
-  std::printf("forcefield  cutoff %g nm, vdw %s (switch %g nm), coulomb %s (epsilon_rf %g), skin %g nm; terms:",
+  std::printf("forcefield  cutoff %g nm, vdw %s (switch %g nm), coulomb %s (epsilon_rf %g), %s; terms:",
               c.forcefield.cutoff, c.forcefield.vdw_modifier.c_str(), c.forcefield.vdw_switch, c.forcefield.coulomb.c_str(),
-              c.forcefield.epsilon_rf, c.forcefield.neighbor_skin);
+              c.forcefield.epsilon_rf, describe_pair_list(*m.force_field).c_str());
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
   std::printf("\nsmoothness  %s", describe_smoothness(c.forcefield).c_str());
   std::unique_ptr<Integrator> integrator = make_integrator(c.integrator);

@@ -23,7 +23,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
       {"system", {"structure", "topology"}},
       {"forcefield",
        {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "coulomb_modifier", "coulomb_switch", "switch_smoothness",
-        "epsilon_r", "epsilon_rf", "neighbor_skin"}},
+        "epsilon_r", "epsilon_rf", "neighbor_skin", "neighbor_search_skin"}},
       {"integrator",
        {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
@@ -400,6 +400,12 @@ class ConfigReader {
     if (const auto* n = t.get("neighbor_skin")) {
       ff.neighbor_skin = number(*n, "neighbor_skin");
       require(ff.neighbor_skin >= 0, *n, "neighbor_skin must not be negative (nm)");
+    }
+    if (const auto* n = t.get("neighbor_search_skin")) {
+      ff.neighbor_search_skin = number(*n, "neighbor_search_skin");
+      require(*ff.neighbor_search_skin >= ff.neighbor_skin, *n,
+              "neighbor_search_skin (" + format_number(*ff.neighbor_search_skin) +
+                  " nm) must not be smaller than neighbor_skin (" + format_number(ff.neighbor_skin) + " nm)");
     }
   }
 

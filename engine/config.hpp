@@ -22,7 +22,8 @@ struct ForceFieldConfig {
   int switch_smoothness = 2;                    // k: potential-switch pair potentials are C^k (2 = GROMACS)
   double epsilon_r = 1.0;
   double epsilon_rf = 0.0;                      // 0 means infinity
-  double neighbor_skin = 0.1;                   // nm, Verlet buffer
+  double neighbor_skin = 0.1;                   // nm, buffer of the pair list the kernels run over
+  std::optional<double> neighbor_search_skin;   // nm, buffer of the searched list it is pruned from; unset: automatic
 };
 
 // A user Butcher tableau as given in TOML; checked when the integrator is built.

@@ -44,6 +44,12 @@ long ForceField::neighbor_rebuilds() const {
   return n;
 }
 
+long ForceField::neighbor_prunes() const {
+  long n = 0;
+  for (const auto& t : terms_) n += t->prunes();
+  return n;
+}
+
 double ForceField::neighbor_build_seconds() const {
   double s = 0;
   for (const auto& t : terms_) s += t->rebuild_seconds();

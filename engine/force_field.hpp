@@ -36,6 +36,7 @@ class ForceTerm {
   // changes: the truncated potential is smooth enough, and exact (see ForceField::fix_pair_set).
   virtual void fix_pair_set(const Coords* /*q*/) {}
   virtual long rebuilds() const { return 0; }
+  virtual long prunes() const { return 0; }
   virtual double rebuild_seconds() const { return 0; }
   // Checkpoints: what changes results at round-off besides q (the neighbour list's build
   // positions: the list's order is the summation order), and rebuilding from it.
@@ -64,6 +65,7 @@ class ForceField {
   long force_evaluations() const { return force_evaluations_; }
   long hessian_evaluations() const { return hessian_evaluations_; }
   long neighbor_rebuilds() const;
+  long neighbor_prunes() const;
   double neighbor_build_seconds() const;
   // Every term's save()/restore(), entries prefixed with the term's index.
   Carried save() const;

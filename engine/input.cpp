@@ -58,14 +58,18 @@ std::string describe_atom(const System& s, int i) {
 // GROMACS's rule: the pair-list range (cut-off plus buffer) must fit in half the box, so that no
 // pair is listed with two images of the same atom.
 void check_box(const RunConfig& c, const Box& box, int box_line) {
-  const double list_range = c.forcefield.cutoff + c.forcefield.neighbor_skin;
+  const auto& ff = c.forcefield;
+  const bool searched = ff.neighbor_search_skin.has_value();  // unset: chosen to fit the box
+  const double skin = searched ? *ff.neighbor_search_skin : ff.neighbor_skin;
+  const std::string key = searched ? "neighbor_search_skin" : "neighbor_skin";
+  const double list_range = ff.cutoff + skin;
   for (int k = 0; k < 3; ++k)
     if (box.length[k] > 0 && box.length[k] < 2 * list_range)
       throw InputError(c.structure.string(), box_line,
                        "box length " + format("%g", box.length[k]) + " nm in " + "xyz"[k] +
-                           " is shorter than twice cutoff + neighbor_skin = 2 x (" + format("%g", c.forcefield.cutoff) +
-                           " + " + format("%g", c.forcefield.neighbor_skin) + ") = " + format("%g", 2 * list_range) +
-                           " nm set in " + c.file.string() + ": use a larger box or a smaller cutoff or neighbor_skin");
+                           " is shorter than twice cutoff + " + key + " = 2 x (" + format("%g", ff.cutoff) + " + " +
+                           format("%g", skin) + ") = " + format("%g", 2 * list_range) + " nm set in " +
+                           c.file.string() + ": use a larger box or a smaller cutoff or " + key);
 }
 
 // Overlapping atoms make the first force evaluation meaningless (or infinite).

@@ -64,14 +64,15 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
       }
 }
 
-double NeighborList::max_displacement(const Coords& q) const {
-  if (builds_ == 0 || q.cols() != n_atoms_) return INFINITY;
+double max_displacement(const Coords& a, const Coords& b) {
+  if (a.cols() != b.cols()) return INFINITY;
   // One thread: this runs before every evaluation and costs about as much as starting a team.
-  const double* now = q.data();
-  const double* then = q_at_build_.data();
+  const double* now = a.data();
+  const double* then = b.data();
+  const Eigen::Index n = a.cols();
   double max_d2 = 0;
 #pragma omp simd reduction(max : max_d2)
-  for (int i = 0; i < n_atoms_; ++i) {
+  for (Eigen::Index i = 0; i < n; ++i) {
     const double dx = now[3 * i] - then[3 * i], dy = now[3 * i + 1] - then[3 * i + 1],
                  dz = now[3 * i + 2] - then[3 * i + 2];
     max_d2 = std::max(max_d2, dx * dx + dy * dy + dz * dz);
@@ -79,8 +80,8 @@ double NeighborList::max_displacement(const Coords& q) const {
   return std::sqrt(max_d2);
 }
 
-bool NeighborList::update(const Coords& q) {
-  if (max_displacement(q) <= 0.5 * skin_) return false;
+bool NeighborList::update(const Coords& q, double allowed) {
+  if (builds_ > 0 && max_displacement(q, q_at_build_) <= allowed) return false;
   build(q);
   return true;
 }

@@ -21,6 +21,9 @@
 
 namespace vimd {
 
+// Largest distance any atom moved between a and b (same atoms), nm.
+double max_displacement(const Coords& a, const Coords& b);
+
 class NeighborList {
  public:
   // j-cluster: 8 atoms, one AVX-512 vector of doubles, two AVX2 or four SSE vectors (the kernels
@@ -44,12 +47,11 @@ class NeighborList {
   // Throws InputError if a periodic box length is shorter than twice the cut-off.
   NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions);
 
-  // Rebuilds when an atom has moved more than skin/2 since the last build (or never was built).
-  // Returns true if it rebuilt.
-  bool update(const Coords& q);
+  // Rebuilds when an atom has moved more than `allowed` nm since the last build (or never was
+  // built); returns true if it rebuilt. skin/2 keeps every pair inside the cut-off listed; a
+  // pruned list (NonbondedPairTerm) allows less, so that its inner range stays covered.
+  bool update(const Coords& q, double allowed);
   void build(const Coords& q);
-  // Largest displacement of any atom since the last build, nm.
-  double max_displacement(const Coords& q) const;
   long builds() const { return builds_; }
   // Wall time spent in build(), s (the cost reports show it per step).
   double build_seconds() const { return build_seconds_; }

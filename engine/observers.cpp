@@ -315,11 +315,11 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
                "  constraints       max RMS relative deviation %.3e\n"
                "  cost              %.3f s wall, %.3f ms/step, %.2f ns/day\n"
                "                    %.2f force evaluations/step, %.2f Hessian-vector products/step, "
-               "%ld neighbour-list builds (%.3f ms/step)\n",
+               "%ld neighbour-list searches and %ld prunings (%.3f ms/step)\n",
                info.integrator.name().c_str(), atoms, totals.steps, info.dt, simulated, stats.mean, stats.drift,
                time_.size(), stats.rms_fluctuation, stats.detrended_fluctuation, mean(temperature_), max_constraint,
                totals.wall_seconds, 1e3 * totals.wall_seconds / steps, rate, totals.force_evaluations / steps,
-               totals.hessian_evaluations / steps, totals.neighbor_rebuilds,
+               totals.hessian_evaluations / steps, totals.neighbor_rebuilds, totals.neighbor_prunes,
                1e3 * totals.neighbor_build_seconds / steps);
   if (!platform_.empty()) {
     std::fprintf(out_, "  platform         ");
@@ -347,6 +347,7 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
         << "  \"force_evaluations_per_step\": " << number(totals.force_evaluations / steps) << ",\n"
         << "  \"hessian_evaluations_per_step\": " << number(totals.hessian_evaluations / steps) << ",\n"
         << "  \"neighbor_rebuilds\": " << totals.neighbor_rebuilds << ",\n"
+        << "  \"neighbor_prunes\": " << totals.neighbor_prunes << ",\n"
         << "  \"neighbor_build_seconds\": " << number(totals.neighbor_build_seconds) << ",\n"
         << "  \"mean_iterations\": " << number(totals.solver_iterations / steps);
     for (const auto& [key, value] : platform_) out << ",\n  \"" << key << "\": \"" << value << "\"";

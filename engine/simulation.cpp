@@ -104,6 +104,7 @@ void Simulation::write_checkpoint_now(const State& state, const RunInfo& info, c
   cp.totals.put("force_evaluations", static_cast<double>(totals.force_evaluations));
   cp.totals.put("hessian_evaluations", static_cast<double>(totals.hessian_evaluations));
   cp.totals.put("neighbor_rebuilds", static_cast<double>(totals.neighbor_rebuilds));
+  cp.totals.put("neighbor_prunes", static_cast<double>(totals.neighbor_prunes));
   cp.totals.put("neighbor_build_seconds", totals.neighbor_build_seconds);
   cp.totals.put("solver_iterations", static_cast<double>(totals.solver_iterations));
   for (auto& o : observers_) cp.observers.push_back(o->checkpoint(info));
@@ -117,6 +118,7 @@ RunTotals Simulation::run(State& state, long steps) {
   evaluations0_ = problem_.force_field.force_evaluations();
   hessians0_ = problem_.force_field.hessian_evaluations();
   rebuilds0_ = problem_.force_field.neighbor_rebuilds();
+  prunes0_ = problem_.force_field.neighbor_prunes();
   build_seconds0_ = problem_.force_field.neighbor_build_seconds();
   // A later run continues the same state: constrained and set up already.
   if (!initialized_) {
@@ -152,6 +154,7 @@ RunTotals Simulation::resume(const Checkpoint& cp, long last_step, State& state)
   evaluations0_ = problem_.force_field.force_evaluations();
   hessians0_ = problem_.force_field.hessian_evaluations();
   rebuilds0_ = problem_.force_field.neighbor_rebuilds();
+  prunes0_ = problem_.force_field.neighbor_prunes();
   build_seconds0_ = problem_.force_field.neighbor_build_seconds();
   wall0_ = std::chrono::steady_clock::now();
   RunTotals totals;
@@ -159,6 +162,7 @@ RunTotals Simulation::resume(const Checkpoint& cp, long last_step, State& state)
   totals.force_evaluations = static_cast<long>(cp.totals.number("force_evaluations"));
   totals.hessian_evaluations = static_cast<long>(cp.totals.number("hessian_evaluations"));
   totals.neighbor_rebuilds = static_cast<long>(cp.totals.number("neighbor_rebuilds"));
+  totals.neighbor_prunes = cp.totals.has("neighbor_prunes") ? static_cast<long>(cp.totals.number("neighbor_prunes")) : 0;
   totals.neighbor_build_seconds = cp.totals.number("neighbor_build_seconds");
   totals.solver_iterations = static_cast<long>(cp.totals.number("solver_iterations"));
   for (std::size_t k = 0; k < observers_.size(); ++k) observers_[k]->resume(info, cp.observers[k]);
@@ -185,6 +189,7 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
     t.force_evaluations += problem_.force_field.force_evaluations() - evaluations0_;
     t.hessian_evaluations += problem_.force_field.hessian_evaluations() - hessians0_;
     t.neighbor_rebuilds += problem_.force_field.neighbor_rebuilds() - rebuilds0_;
+    t.neighbor_prunes += problem_.force_field.neighbor_prunes() - prunes0_;
     t.neighbor_build_seconds += problem_.force_field.neighbor_build_seconds() - build_seconds0_;
     t.steps = state.step - info.first_step;
     return t;

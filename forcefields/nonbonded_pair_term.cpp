@@ -2,10 +2,13 @@
 
 #include <omp.h>
 
+#include <chrono>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 
 #include "engine/errors.hpp"
@@ -78,6 +81,20 @@ std::pair<int, int> half_block(const std::vector<int>& half_start, int t, int nt
   return {boundary(t), boundary(t + 1)};
 }
 
+// Extra buffer of the searched list over the pruned one when the configuration leaves it open.
+constexpr double kAutoSearchSkinExtra = 0.4;  // nm
+
+// The searched list's buffer: as configured, or the pruned one's plus kAutoSearchSkinExtra where the
+// box leaves room (cut-off + search skin within half the box). Pruning pays only if the search
+// can then wait longer than a pruning does, i.e. if the extra buffer is at least the pruned one.
+double search_skin_for(const System& system, const ForceFieldConfig& config) {
+  if (config.neighbor_search_skin) return *config.neighbor_search_skin;
+  double skin = config.neighbor_skin + kAutoSearchSkinExtra;
+  for (int k = 0; k < 3; ++k)
+    if (system.box.length[k] > 0) skin = std::min(skin, 0.5 * system.box.length[k] - config.cutoff);
+  return skin - config.neighbor_skin >= config.neighbor_skin ? skin : config.neighbor_skin;
+}
+
 }  // namespace
 
 NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfig& config)
@@ -93,7 +110,8 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       n_types_(static_cast<int>(system.c6.rows())),
       charge_(system.charge),
       type_(system.type),
-      list_(system.box, config.cutoff, config.neighbor_skin, system.exclusions) {
+      skin_(config.neighbor_skin),
+      list_(system.box, config.cutoff, search_skin_for(system, config), system.exclusions) {
   if (system.c6.rows() != system.c6.cols() || system.c12.rows() != n_types_ || system.c12.cols() != n_types_)
     throw std::invalid_argument("NonbondedPairTerm: c6/c12 must be square matrices of the same size");
   if (static_cast<int>(type_.size()) != n_atoms_ || charge_.size() != n_atoms_)
@@ -120,8 +138,61 @@ void NonbondedPairTerm::prepare(const Coords& q) {
     throw std::invalid_argument("NonbondedPairTerm: " + std::to_string(q.cols()) + " positions for " +
                                 std::to_string(n_atoms_) + " atoms");
   // A fixed pair set needs no new pairs, and a rebuild would renumber the entries it refers to.
-  if (!pair_set_fixed_) list_.update(q);
-  refresh_layout();
+  if (pair_set_fixed_) {
+    refresh_layout();
+  } else if (!pruning()) {
+    list_.update(q, 0.5 * skin_);
+    refresh_layout();
+  } else if (prunes_ == 0 || max_displacement(q, pruned_at_) > 0.5 * skin_) {
+    list_.update(q, 0.5 * (list_.skin() - skin_));
+    refresh_layout();
+    prune(q);
+  }
+}
+
+void NonbondedPairTerm::prune(const Coords& q) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto& entries = list_.entries();
+  const auto& half_start = list_.half_start();
+  prune_masks_.resize(entries.size());
+  PairView view = pair_view();
+  view.entries = entries.data();
+  view.half_start = half_start.data();
+  const double range = list_.cutoff() + skin_;
+  view.cutoff2 = range * range;
+  const MaskKernel kernel = simd::mask_kernel();
+  const int n_halves = list_.n_halves();
+  pruned_half_start_.resize(n_halves + 1);
+  pruned_half_start_[0] = 0;
+  std::vector<int> thread_kept(omp_get_max_threads() + 1, 0);
+  constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
+  // Each thread prunes its block of halves and counts what it keeps; the blocks are then copied
+  // into place in half order (the pruned list does not depend on the thread count).
+#pragma omp parallel if (entries.size() >= kParallelEntries)
+  {
+    list_.pack_positions(q, x_.data(), y_.data(), z_.data());
+    const int t = omp_get_thread_num();
+    const auto [h0, h1] = half_block(half_start, t, omp_get_num_threads());
+    kernel(view, h0, h1, prune_masks_.data());
+    int kept = 0;
+    for (int e = half_start[h0]; e < half_start[h1]; ++e) kept += prune_masks_[e] != 0;
+    thread_kept[t + 1] = kept;
+#pragma omp barrier
+#pragma omp single
+    {
+      std::partial_sum(thread_kept.begin(), thread_kept.end(), thread_kept.begin());
+      pruned_entries_.resize(thread_kept.back());
+    }
+    int out = thread_kept[t];
+    for (int h = h0; h < h1; ++h) {
+      for (int e = half_start[h]; e < half_start[h + 1]; ++e)
+        if (prune_masks_[e] != 0) pruned_entries_[out++] = {entries[e].j_cluster, entries[e].shift, prune_masks_[e]};
+      pruned_half_start_[h + 1] = out;
+    }
+  }
+  pruned_at_ = q;
+  ++prunes_;
+  prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 PairView NonbondedPairTerm::pair_view() const {
@@ -135,8 +206,8 @@ PairView NonbondedPairTerm::pair_view() const {
           slot_c6_.data(),
           slot_c12_.data(),
           static_cast<std::size_t>(list_.n_slots()),
-          list_.entries().data(),
-          list_.half_start().data(),
+          entries().data(),
+          half_start().data(),
           list_.shift_vectors().data(),
           cutoff2,
           lj_,
@@ -147,12 +218,12 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   pair_set_fixed_ = false;
   if (!q || force_continuous_at_cutoff_) return;
   prepare(*q);
-  fixed_masks_.resize(list_.entries().size());
+  fixed_masks_.resize(entries().size());
   const PairView view = pair_view();
   const MaskKernel kernel = simd::mask_kernel();
-  const auto& half_start = list_.half_start();
+  const auto& half_start = this->half_start();
   constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
-#pragma omp parallel if (list_.entries().size() >= kParallelEntries)
+#pragma omp parallel if (entries().size() >= kParallelEntries)
   {
     list_.pack_positions(*q, x_.data(), y_.data(), z_.data());
     const auto [h0, h1] = half_block(half_start, omp_get_thread_num(), omp_get_num_threads());
@@ -163,6 +234,7 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
 
 void NonbondedPairTerm::save(Carried& out) const {
   if (list_.builds() > 0) out.put("neighbor_list_built_at", list_.built_at());
+  if (prunes_ > 0) out.put("neighbor_list_pruned_at", pruned_at_);
 }
 
 void NonbondedPairTerm::restore(const Carried& in) {
@@ -171,6 +243,11 @@ void NonbondedPairTerm::restore(const Carried& in) {
   if (built_at.cols() != n_atoms_) throw std::invalid_argument("NonbondedPairTerm::restore: wrong number of atoms");
   list_.build(built_at);  // the same positions give the same list, hence the same summation order
   refresh_layout();
+  if (in.has("neighbor_list_pruned_at")) {
+    const Coords pruned_at = in.coords("neighbor_list_pruned_at");
+    if (pruned_at.cols() != n_atoms_) throw std::invalid_argument("NonbondedPairTerm::restore: wrong number of atoms");
+    prune(pruned_at);
+  }
 }
 
 void NonbondedPairTerm::refresh_layout() {
@@ -214,7 +291,7 @@ void NonbondedPairTerm::run_parallel(Pack&& pack, Kernel&& kernel, Coords& out) 
   const auto& slot_atom = list_.slot_atom();
   // Small lists run on one thread: starting a team would cost more than the pairs.
   constexpr std::size_t kParallelEntries = 2048;
-#pragma omp parallel if (list_.entries().size() >= kParallelEntries)
+#pragma omp parallel if (entries().size() >= kParallelEntries)
   {
     pack();
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
@@ -254,7 +331,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
-  const auto& half_start = list_.half_start();
+  const auto& half_start = this->half_start();
   const int n_halves = list_.n_halves();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   partial_energies_.assign(2 * n_halves + n_blocks, 0.0);
@@ -288,14 +365,14 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
-  const auto& half_start = list_.half_start();
+  const auto& half_start = this->half_start();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : find_inside_masks(q);
   if (masks) {
     if (!pair_set_fixed_) ++hessian_cache_hits_;
   } else {
-    list_masks_.resize(list_.entries().size());
-    for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = list_.entries()[e].mask;
+    list_masks_.resize(entries().size());
+    for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = entries()[e].mask;
     masks = list_masks_.data();
   }
   run_parallel(
@@ -316,7 +393,7 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
 std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords& q) {
   InsideMasks* slot = nullptr;
   for (auto& c : inside_cache_)
-    if (c.build == list_.builds() && same_positions(c.q, q)) slot = &c;
+    if (c.list_version == list_version() && same_positions(c.q, q)) slot = &c;
   if (!slot) {
     if (inside_cache_.size() < kHessianCacheSlots) {
       slot = &inside_cache_.emplace_back();
@@ -324,17 +401,17 @@ std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords&
       slot = &*std::min_element(inside_cache_.begin(), inside_cache_.end(),
                                 [](const InsideMasks& a, const InsideMasks& b) { return a.last_used < b.last_used; });
     }
-    slot->build = list_.builds();
+    slot->list_version = list_version();
     slot->q = q;
   }
   slot->last_used = ++cache_clock_;
-  slot->masks.resize(list_.entries().size());
+  slot->masks.resize(entries().size());
   return slot->masks;
 }
 
 const std::uint32_t* NonbondedPairTerm::find_inside_masks(const Coords& q) {
   for (auto& c : inside_cache_)
-    if (c.build == list_.builds() && same_positions(c.q, q)) {
+    if (c.list_version == list_version() && same_positions(c.q, q)) {
       c.last_used = ++cache_clock_;
       return c.masks.data();
     }

@@ -6,6 +6,12 @@
 //   (V_RF and V_RF,excl times the switch S(r − coulomb_switch) with coulomb_modifier = potential-switch)
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
+// Two lists, as GROMACS's dynamic pruning: the searched list holds every cluster pair within
+// cut-off + search skin; the kernels run over a pruned copy, its pairs within cut-off + skin,
+// redone by one cheap SIMD pass whenever an atom has moved skin/2 since the last pruning. The
+// search is redone only when an atom has moved (search skin − skin)/2 since it ran, so the pruned
+// range, hence every pair inside the cut-off, is always covered: exact, like a single list.
+//
 // Threads: each thread takes a contiguous block of i-half-clusters (balanced by list entries)
 // and accumulates into its own force buffer; the buffers are summed per atom in thread order.
 // No atomics, no races. Energies are summed from per-half partials in a fixed order, so they do
@@ -31,11 +37,16 @@ class NonbondedPairTerm : public ForceTerm {
   void prepare(const Coords& q) override;
   void fix_pair_set(const Coords* q) override;
   long rebuilds() const override { return list_.builds(); }
-  double rebuild_seconds() const override { return list_.build_seconds(); }
+  long prunes() const override { return prunes_; }
+  // Searches and prunings.
+  double rebuild_seconds() const override { return list_.build_seconds() + prune_seconds_; }
   void save(Carried& out) const override;
   void restore(const Carried& in) override;
 
   const NeighborList& neighbor_list() const { return list_; }
+  // Buffers of the pruned and the searched list (equal: no pruning), nm.
+  double skin() const { return skin_; }
+  double search_skin() const { return list_.skin(); }
   // Hessian–vector products that reused the cut-off masks of an earlier force evaluation.
   long hessian_cache_hits() const { return hessian_cache_hits_; }
 
@@ -54,7 +65,7 @@ class NonbondedPairTerm : public ForceTerm {
 
  private:
   struct InsideMasks {
-    long build = -1;
+    long list_version = -1;
     Coords q;
     std::vector<std::uint32_t> masks;  // per list entry
     long last_used = 0;
@@ -63,6 +74,13 @@ class NonbondedPairTerm : public ForceTerm {
   const std::uint32_t* find_inside_masks(const Coords& q);
   static bool same_positions(const Coords& a, const Coords& b);
   void refresh_layout();  // slot-ordered charges and types after a list rebuild
+  bool pruning() const { return list_.skin() > skin_; }
+  void prune(const Coords& q);
+  // The list the kernels run over: the pruned one, or the searched one without pruning.
+  const std::vector<NeighborList::Entry>& entries() const { return pruning() ? pruned_entries_ : list_.entries(); }
+  const std::vector<int>& half_start() const { return pruning() ? pruned_half_start_ : list_.half_start(); }
+  // Changes whenever entries() does (masks and caches refer to its entry numbers).
+  long list_version() const { return list_.builds() + prunes_; }
   PairView pair_view() const;
   void ensure_buffers();
   template <class Pack, class Kernel>
@@ -80,7 +98,14 @@ class NonbondedPairTerm : public ForceTerm {
   Eigen::VectorXd charge_;
   std::vector<int> type_;
 
+  double skin_;
   NeighborList list_;
+  std::vector<NeighborList::Entry> pruned_entries_;
+  std::vector<int> pruned_half_start_;
+  std::vector<std::uint32_t> prune_masks_;  // per searched entry
+  Coords pruned_at_;
+  long prunes_ = 0;
+  double prune_seconds_ = 0;
   long layout_build_ = -1;  // list build the slot arrays below belong to
   std::vector<double> slot_charge_;
   std::vector<int> slot_type_;

@@ -146,31 +146,55 @@ TEST(NeighborList, SwitchedCoulombMatchesBruteForce) {
   }
 }
 
+// Every atom moves by a fraction of the half skin at a time, with one list (search skin = skin)
+// and with a searched list pruned to the skin: the list must be pruned exactly when someone has
+// gone further than skin/2 since the last pruning, and searched again only when, at such a
+// moment, someone has gone further than (search skin − skin)/2 since the last search.
 TEST(NeighborList, MatchesBruteForceOverDisplacedConfigurations) {
   auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 17);
-  for (const char* modifier : kModifiers) {
-    const auto config = testing::pair_config(modifier, "reaction-field", 0.0);
-    NonbondedPairTerm term(system, config);
-    const double half_skin = 0.5 * config.neighbor_skin;
-    std::mt19937_64 rng(5);
-    Coords q = q0;
-    Coords q_built = q0;
-    long expected_builds = 1;
-    expect_matches_brute_force(term, system, q, std::string(modifier) + " start");
-    // Every atom moves by exactly this fraction of the half skin relative to the previous
-    // configuration; the list must be rebuilt exactly when someone has gone further than skin/2.
-    for (double fraction : {0.3, 0.6, 0.999, 0.4, 0.8, 1.001, 0.2, 1.2, 0.95, 0.05, 0.5, 1.5, 0.99}) {
-      q += random_vectors(static_cast<int>(q.cols()), rng, fraction * half_skin);
-      double max_moved = 0;
-      for (int i = 0; i < q.cols(); ++i) max_moved = std::max(max_moved, (q.col(i) - q_built.col(i)).norm());
-      if (max_moved > half_skin) {
-        ++expected_builds;
-        q_built = q;
+  for (const char* modifier : kModifiers)
+    for (const double search_skin : {0.1, 0.35}) {
+      auto config = testing::pair_config(modifier, "reaction-field", 0.0);
+      config.neighbor_search_skin = search_skin;
+      NonbondedPairTerm term(system, config);
+      const bool pruned = search_skin > config.neighbor_skin;
+      const double half_skin = 0.5 * config.neighbor_skin;
+      const double search_allowance = pruned ? 0.5 * (search_skin - config.neighbor_skin) : half_skin;
+      const std::string what = std::string(modifier) + (pruned ? ", pruned" : ", one list");
+      std::mt19937_64 rng(5);
+      Coords q = q0, q_searched = q0, q_pruned = q0;
+      long expected_searches = 1, expected_prunes = pruned ? 1 : 0;
+      expect_matches_brute_force(term, system, q, what + " start");
+      for (double fraction : {0.3, 0.6, 0.999, 0.4, 0.8, 1.001, 0.2, 1.2, 0.95, 0.05, 0.5, 1.5, 0.99, 0.7, 0.9, 1.1}) {
+        q += random_vectors(static_cast<int>(q.cols()), rng, fraction * half_skin);
+        if (max_displacement(q, pruned ? q_pruned : q_searched) > half_skin) {
+          if (max_displacement(q, q_searched) > search_allowance) {
+            ++expected_searches;
+            q_searched = q;
+          }
+          if (pruned) ++expected_prunes;
+          q_pruned = q;
+        }
+        expect_matches_brute_force(term, system, q, what + " step fraction " + std::to_string(fraction));
+        EXPECT_EQ(term.rebuilds(), expected_searches) << what << " after fraction " << fraction;
+        EXPECT_EQ(term.prunes(), expected_prunes) << what << " after fraction " << fraction;
       }
-      expect_matches_brute_force(term, system, q, std::string(modifier) + " step fraction " + std::to_string(fraction));
-      EXPECT_EQ(term.rebuilds(), expected_builds) << modifier << " after fraction " << fraction;
+      EXPECT_GT(expected_searches, pruned ? 1 : 3) << what;
+      if (pruned) {
+        EXPECT_GT(expected_prunes, expected_searches + 3) << what;
+      }
     }
-    EXPECT_GT(expected_builds, 3);
+}
+
+// Without neighbor_search_skin the searched list gets the skin plus a margin the box has room for
+// (cut-off + search skin within half the box), and pruning only where that margin is at least the
+// skin, so that searching waits longer than pruning does.
+TEST(NeighborList, AutomaticSearchSkinFitsTheBox) {
+  for (const auto& [box_length, expected] : std::vector<std::pair<double, double>>{{4.0, 0.5}, {2.6, 0.4}, {2.0, 0.1}}) {
+    auto [system, q] = testing::water_like_system(100, Vec3::Constant(box_length), 3);
+    const NonbondedPairTerm term(system, testing::pair_config("potential-shift", "reaction-field"));
+    EXPECT_NEAR(term.search_skin(), expected, 1e-12) << "box " << box_length;
+    EXPECT_EQ(term.skin(), 0.1);
   }
 }
 
@@ -239,6 +263,39 @@ TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheBuffer) {
   }
 }
 
+// The same at the edge of the searched list: pairs just inside cut-off + search skin at the search
+// close in by almost (search skin − skin) (a pruning, no search), then by almost the skin (no
+// pruning), ending inside the cut-off: the pruning must have kept them.
+TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheSearchedList) {
+  auto [system, q] = testing::water_like_system(500, Vec3(3.2, 3.2, 3.2), 29);
+  auto config = testing::pair_config("potential-shift", "reaction-field");
+  config.neighbor_search_skin = 0.5;
+  NonbondedPairTerm term(system, config);
+  testing::evaluate(term, q);
+  const double rc = config.cutoff, skin = config.neighbor_skin, search_skin = *config.neighbor_search_skin;
+  std::vector<bool> moved(q.cols(), false);
+  std::vector<std::pair<int, Vec3>> pulls;  // atom, unit direction
+  testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
+    if (r < rc + 0.98 * search_skin || r >= rc + 0.99 * search_skin || moved[i] || moved[j]) return;
+    const Vec3 d = system.box.minimum_image(q.col(i) - q.col(j)) / r;
+    pulls.push_back({i, -d});
+    pulls.push_back({j, d});
+    moved[i] = moved[j] = true;
+  });
+  ASSERT_GT(pulls.size(), 40u);
+  for (const double distance : {0.4999 * (search_skin - skin), 0.4999 * skin}) {
+    for (const auto& [atom, direction] : pulls) q.col(atom) += distance * direction;
+    expect_matches_brute_force(term, system, q, "pulled by " + std::to_string(distance));
+  }
+  int now_inside = 0;
+  testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
+    if (moved[i] && moved[j] && r < rc) ++now_inside;
+  });
+  EXPECT_GT(now_inside, 20);
+  EXPECT_EQ(term.rebuilds(), 1);
+  EXPECT_EQ(term.prunes(), 2);
+}
+
 TEST(NeighborList, UnwrappedCoordinatesGiveTheSameResult) {
   auto [system, q] = testing::water_like_system(300, Vec3(2.7, 2.5, 2.6), 31);
   const auto config = testing::pair_config("potential-switch", "reaction-field", 78.0);
@@ -256,8 +313,10 @@ TEST(NeighborList, UnwrappedCoordinatesGiveTheSameResult) {
   EXPECT_NEAR(a.energies[1], b.energies[1], 1e-12 * ref.coulomb_scale);
   EXPECT_LT(relative_difference(b.f, a.f), 1e-12);
   expect_matches_brute_force(unwrapped_term, system, unwrapped, "unwrapped");
-  // Moving on from unwrapped positions keeps working across rebuilds.
-  Coords moved = unwrapped + random_vectors(static_cast<int>(q.cols()), rng, 0.08);
+  // Moving on from unwrapped positions keeps working across searches (beyond (0.35 − 0.1)/2 nm:
+  // the automatic search skin of this box is 0.35 nm).
+  ASSERT_NEAR(unwrapped_term.search_skin(), 0.35, 1e-12);
+  Coords moved = unwrapped + random_vectors(static_cast<int>(q.cols()), rng, 0.13);
   expect_matches_brute_force(unwrapped_term, system, moved, "unwrapped, moved");
   EXPECT_EQ(unwrapped_term.rebuilds(), 2);
 }

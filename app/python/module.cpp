@@ -130,6 +130,7 @@ class PySimulation {
     d["force_evaluations"] = totals_.force_evaluations;
     d["hessian_evaluations"] = totals_.hessian_evaluations;
     d["neighbor_rebuilds"] = totals_.neighbor_rebuilds;
+    d["neighbor_prunes"] = totals_.neighbor_prunes;
     d["neighbor_build_seconds"] = totals_.neighbor_build_seconds;
     d["solver_iterations"] = totals_.solver_iterations;
     return d;
