@@ -69,16 +69,28 @@ void excluded_hessian(const PairView& d, const NeighborList::ExcludedPair* exclu
   }
 }
 
-// i-halves of thread t when nt threads share the list, balanced by entry count.
-std::pair<int, int> half_block(const std::vector<int>& half_start, int t, int nt) {
-  const long total = half_start.back();
+// i-halves of thread t when nt threads share the list, balanced by `prefix` (cumulative work per
+// half: entries, or the kernels' estimated work).
+template <class Count>
+std::pair<int, int> half_block(const std::vector<Count>& prefix, int t, int nt) {
+  const long total = prefix.back();
   auto boundary = [&](int k) {
     if (k == 0) return 0;
-    if (k == nt) return static_cast<int>(half_start.size()) - 1;
+    if (k == nt) return static_cast<int>(prefix.size()) - 1;
     const long target = total * k / nt;
-    return static_cast<int>(std::lower_bound(half_start.begin(), half_start.end(), target) - half_start.begin());
+    return static_cast<int>(std::lower_bound(prefix.begin(), prefix.end(), target) - prefix.begin());
   };
   return {boundary(t), boundary(t + 1)};
+}
+
+// The pair kernels' work for one entry, in vector pair computations (a row of `lanes` pairs with
+// any bit set costs one) plus one for visiting it: entries differ several-fold (a j-cluster at the
+// edge of the range has few pairs), so splitting by entry count leaves one thread waiting.
+long entry_work(std::uint32_t mask, int lanes) {
+  const std::uint32_t group = (1u << lanes) - 1;
+  long work = 1;
+  for (int shift = 0; shift < 32; shift += lanes) work += ((mask >> shift) & group) != 0;
+  return work;
 }
 
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
@@ -162,8 +174,10 @@ void NonbondedPairTerm::prune(const Coords& q) {
   view.cutoff2 = range * range;
   const MaskKernel kernel = simd::mask_kernel();
   const int n_halves = list_.n_halves();
+  const int lanes = simd::lanes();
   pruned_half_start_.resize(n_halves + 1);
   pruned_half_start_[0] = 0;
+  half_work_.assign(n_halves + 1, 0);
   std::vector<int> thread_kept(omp_get_max_threads() + 1, 0);
   constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
   // Each thread prunes its block of halves and counts what it keeps; the blocks are then copied
@@ -185,11 +199,17 @@ void NonbondedPairTerm::prune(const Coords& q) {
     }
     int out = thread_kept[t];
     for (int h = h0; h < h1; ++h) {
+      long work = 0;
       for (int e = half_start[h]; e < half_start[h + 1]; ++e)
-        if (prune_masks_[e] != 0) pruned_entries_[out++] = {entries[e].j_cluster, entries[e].shift, prune_masks_[e]};
+        if (prune_masks_[e] != 0) {
+          pruned_entries_[out++] = {entries[e].j_cluster, entries[e].shift, prune_masks_[e]};
+          work += entry_work(prune_masks_[e], lanes);
+        }
       pruned_half_start_[h + 1] = out;
+      half_work_[h + 1] = work;
     }
   }
+  std::partial_sum(half_work_.begin(), half_work_.end(), half_work_.begin());
   pruned_at_ = q;
   ++prunes_;
   prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -272,6 +292,16 @@ void NonbondedPairTerm::refresh_layout() {
       slot_c12_[static_cast<std::size_t>(t) * n + s] = c12_[t * n_types_ + slot_type_[s]];
     }
   layout_build_ = list_.builds();
+  if (!pruning()) {  // a pruned list gets its work estimate when pruned
+    const auto& entries = list_.entries();
+    const auto& half_start = list_.half_start();
+    const int lanes = simd::lanes();
+    half_work_.assign(list_.n_halves() + 1, 0);
+    for (int h = 0; h < list_.n_halves(); ++h) {
+      half_work_[h + 1] = half_work_[h];
+      for (int e = half_start[h]; e < half_start[h + 1]; ++e) half_work_[h + 1] += entry_work(entries[e].mask, lanes);
+    }
+  }
 }
 
 void NonbondedPairTerm::ensure_buffers() {
@@ -331,7 +361,6 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
-  const auto& half_start = this->half_start();
   const int n_halves = list_.n_halves();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   partial_energies_.assign(2 * n_halves + n_blocks, 0.0);
@@ -342,7 +371,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   std::uint32_t* inside_masks = hessian_requested_ && !pair_set_fixed_ ? record_inside_masks(q).data() : nullptr;
   run_parallel([&] { list_.pack_positions(q, x_.data(), y_.data(), z_.data()); },
                [&](int t, int nt, double* fx, double* fy, double* fz) {
-                 const auto [h0, h1] = half_block(half_start, t, nt);
+                 const auto [h0, h1] = half_block(half_work_, t, nt);
                  pair_kernel(view, masks, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
                  for (int b = t; b < n_blocks; b += nt)
                    block_coulomb[b] = excluded_forces(view, excluded, cutoff2_, b * kExcludedBlock,
@@ -365,7 +394,6 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
-  const auto& half_start = this->half_start();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : find_inside_masks(q);
   if (masks) {
@@ -381,7 +409,7 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
         list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
       },
       [&](int t, int nt, double* ox, double* oy, double* oz) {
-        const auto [h0, h1] = half_block(half_start, t, nt);
+        const auto [h0, h1] = half_block(half_work_, t, nt);
         pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);
         for (int b = t; b < n_blocks; b += nt)
           excluded_hessian(view, excluded, cutoff2_, ux_.data(), uy_.data(), uz_.data(), b * kExcludedBlock,

@@ -103,6 +103,7 @@ class NonbondedPairTerm : public ForceTerm {
   std::vector<NeighborList::Entry> pruned_entries_;
   std::vector<int> pruned_half_start_;
   std::vector<std::uint32_t> prune_masks_;  // per searched entry
+  std::vector<long> half_work_;             // the kernels' estimated work, cumulative per i-half (threads split it)
   Coords pruned_at_;
   long prunes_ = 0;
   double prune_seconds_ = 0;
