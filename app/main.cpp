@@ -120,6 +120,7 @@ RunIdentity run_identity(const System& s, const RunConfig& c, long summary_every
           {"epsilon_rf", text(f.epsilon_rf)},
           {"neighbor_skin", text(f.neighbor_skin)},
           {"neighbor_search_skin", f.neighbor_search_skin ? text(*f.neighbor_search_skin) : "(automatic)"},
+          {"precision", f.precision},
           {"trajectory_every", std::to_string(c.output.trajectory_every)},
           {"energy_every", std::to_string(c.output.energy_every)},
           {"summary sampling (steps)", std::to_string(summary_every)}};
@@ -217,7 +218,7 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
     prepare_output_dir(dir, options.overwrite);
   }
 
-  add_output_observers(run, config, dir, platform_facts());
+  add_output_observers(run, config, dir, platform_facts(config));
   run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
   run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
 
@@ -346,9 +347,9 @@ int check_command(const fs::path& config_file) {
   if (has_velocities && !m.input.velocities_generated)
     std::printf(", velocities by up to %.3g nm/ps", moved.velocity_change);
   std::printf("\n");
-  std::printf("forcefield  cutoff %g nm, vdw %s (switch %g nm), coulomb %s (epsilon_rf %g), %s; terms:",
+  std::printf("forcefield  cutoff %g nm, vdw %s (switch %g nm), coulomb %s (epsilon_rf %g), %s, %s precision; terms:",
               c.forcefield.cutoff, c.forcefield.vdw_modifier.c_str(), c.forcefield.vdw_switch, c.forcefield.coulomb.c_str(),
-              c.forcefield.epsilon_rf, describe_pair_list(*m.force_field).c_str());
+              c.forcefield.epsilon_rf, describe_pair_list(*m.force_field).c_str(), c.forcefield.precision.c_str());
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
   std::printf("\nsmoothness  %s", describe_smoothness(c.forcefield).c_str());
   std::unique_ptr<Integrator> integrator = make_integrator(c.integrator);

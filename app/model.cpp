@@ -37,10 +37,11 @@ Run::Run(Model& m)
 
 void Run::restart() { simulation = std::make_unique<Simulation>(problem, *integrator, dt); }
 
-std::vector<std::pair<std::string, std::string>> platform_facts() {
+std::vector<std::pair<std::string, std::string>> platform_facts(const RunConfig& config) {
   return {{"simd_target", simd::target_name()},
           {"simd_lanes", std::to_string(simd::lanes())},
-          {"threads", std::to_string(omp_get_max_threads())}};
+          {"threads", std::to_string(omp_get_max_threads())},
+          {"precision", config.forcefield.precision}};
 }
 
 long summary_every(const RunConfig& config) {

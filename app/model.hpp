@@ -41,7 +41,7 @@ struct Run {
 };
 
 // Facts about where a run runs, for its summary: the pair kernels' SIMD target and width, threads.
-std::vector<std::pair<std::string, std::string>> platform_facts();
+std::vector<std::pair<std::string, std::string>> platform_facts(const RunConfig& config);
 
 // Steps between the samples of the end-of-run summary: the energy output's, else about 1000 in all.
 long summary_every(const RunConfig& config);

@@ -23,7 +23,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
       {"system", {"structure", "topology"}},
       {"forcefield",
        {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "coulomb_modifier", "coulomb_switch", "switch_smoothness",
-        "epsilon_r", "epsilon_rf", "neighbor_skin", "neighbor_search_skin"}},
+        "epsilon_r", "epsilon_rf", "neighbor_skin", "neighbor_search_skin", "precision"}},
       {"integrator",
        {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
         "projection", "solver_tolerance", "max_iterations", "acceleration", "tableau"}},
@@ -38,6 +38,7 @@ const std::vector<std::string> kThermostats = {"none", "v-rescale"};
 const std::vector<std::string> kVdwModifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
 const std::vector<std::string> kCoulombTypes = {"reaction-field", "cutoff", "none"};
 const std::vector<std::string> kCoulombModifiers = {"none", "potential-switch"};
+const std::vector<std::string> kPrecisions = {"double", "mixed"};
 const std::vector<std::string> kProjections = {"euclidean", "mass"};
 const std::vector<std::string> kAccelerations = {"none", "anderson"};
 
@@ -119,6 +120,10 @@ class ConfigReader {
     if (const auto* t = root["forcefield"].as_table()) read_forcefield(*t, config.forcefield);
     if (const auto* t = root["integrator"].as_table()) read_integrator(*t, config.integrator);
     if (const auto* t = root["output"].as_table()) read_output(*t, config.output);
+    if (config.forcefield.precision == "mixed" && (config.integrator.type == "vi" || config.integrator.type == "rk"))
+      fail(*root["forcefield"]["precision"].node(),
+           "precision = \"mixed\" is for verlet, shake, rattle and minimize: type = \"" + config.integrator.type +
+               "\" solves its step equations to a tolerance that single-precision forces cannot meet");
     config.output.dir = resolve(config.output.dir);
     return config;
   }
@@ -401,6 +406,7 @@ class ConfigReader {
       ff.neighbor_skin = number(*n, "neighbor_skin");
       require(ff.neighbor_skin >= 0, *n, "neighbor_skin must not be negative (nm)");
     }
+    if (const auto* n = t.get("precision")) ff.precision = choice(*n, "precision", kPrecisions);
     if (const auto* n = t.get("neighbor_search_skin")) {
       ff.neighbor_search_skin = number(*n, "neighbor_search_skin");
       require(*ff.neighbor_search_skin >= ff.neighbor_skin, *n,

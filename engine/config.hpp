@@ -24,6 +24,7 @@ struct ForceFieldConfig {
   double epsilon_rf = 0.0;                      // 0 means infinity
   double neighbor_skin = 0.1;                   // nm, buffer of the pair list the kernels run over
   std::optional<double> neighbor_search_skin;   // nm, buffer of the searched list it is pruned from; unset: automatic
+  std::string precision = "double";             // "double" | "mixed" (pair forces in single precision)
 };
 
 // A user Butcher tableau as given in TOML; checked when the integrator is built.

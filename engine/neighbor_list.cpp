@@ -396,7 +396,8 @@ void NeighborList::collect_excluded_pairs() {
     }
 }
 
-void NeighborList::pack_positions(const Coords& q, double* x, double* y, double* z) const {
+template <class Real>
+void NeighborList::pack_positions(const Coords& q, Real* x, Real* y, Real* z) const {
   const int n = n_slots();
 #pragma omp for schedule(static)
   for (int s = 0; s < n; ++s) {
@@ -404,12 +405,14 @@ void NeighborList::pack_positions(const Coords& q, double* x, double* y, double*
     if (a < 0) {
       x[s] = y[s] = z[s] = 0;
     } else {
-      x[s] = q(0, a) - image_offset_(0, a);
-      y[s] = q(1, a) - image_offset_(1, a);
-      z[s] = q(2, a) - image_offset_(2, a);
+      x[s] = static_cast<Real>(q(0, a) - image_offset_(0, a));
+      y[s] = static_cast<Real>(q(1, a) - image_offset_(1, a));
+      z[s] = static_cast<Real>(q(2, a) - image_offset_(2, a));
     }
   }
 }
+template void NeighborList::pack_positions(const Coords&, double*, double*, double*) const;
+template void NeighborList::pack_positions(const Coords&, float*, float*, float*) const;
 
 void NeighborList::pack_vectors(const Coords& u, double* x, double* y, double* z) const {
   const int n = n_slots();

@@ -73,7 +73,9 @@ class NeighborList {
   // Positions in slot order, each shifted by its atom's build-time image offset (SoA; padding 0).
   // Both packers are OpenMP worksharing loops: called inside a parallel region they share the
   // work (and end with a barrier), called outside one they run on the calling thread.
-  void pack_positions(const Coords& q, double* x, double* y, double* z) const;
+  // Real: double, or float for the mixed-precision kernels.
+  template <class Real>
+  void pack_positions(const Coords& q, Real* x, Real* y, Real* z) const;
   // Any per-atom 3-vector (e.g. the direction of a Hessian–vector product) in slot order, unshifted.
   void pack_vectors(const Coords& u, double* x, double* y, double* z) const;
 

@@ -20,40 +20,45 @@ constexpr int kC = NeighborList::kClusterSize;
 constexpr int kH = NeighborList::kHalfSize;
 
 // The i-half's atoms, loaded once per half.
+template <class Real>
 struct HalfData {
-  double x[kH], y[kH], z[kH], q[kH];
-  const double *c6[kH], *c12[kH];
+  Real x[kH], y[kH], z[kH], q[kH];
+  const Real *c6[kH], *c12[kH];
 };
 
-HWY_INLINE void load_half(const PairView& d, int h, HalfData& hi) {
+template <class Real>
+HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfData<Real>& hi) {
   const int ib = h * kH;
   for (int ii = 0; ii < kH; ++ii) {
     hi.x[ii] = d.x[ib + ii];
     hi.y[ii] = d.y[ib + ii];
     hi.z[ii] = d.z[ib + ii];
-    hi.q[ii] = d.rf.prefactor * d.charge[ib + ii];
+    hi.q[ii] = static_cast<Real>(d.rf.prefactor * d.charge[ib + ii]);
     hi.c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
     hi.c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
   }
 }
 
 // kSharedSwitch: LJ and Coulomb are switched by the same S (same r_switch and smoothness); the
-// switch is then applied once, to their sum, instead of once for each.
-template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch>
-void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy, double* fz,
+// switch is then applied once, to their sum, instead of once for each. Real: the precision of the
+// pair arithmetic and of the force sums (float: the mixed-precision kernel).
+template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real>
+void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0, int h1, Real* fx, Real* fy, Real* fz,
                   double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
-  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  using V = SimdVec<Real>;
+  using Mask = SimdMaskOf<Real>;
+  const int lanes = V::lanes();
   const unsigned lane_bits = (1u << lanes) - 1;
-  const SimdDouble one = simd_broadcast(1.0), zero = simd_zero();
+  const V one = V::broadcast(1.0), zero = V::zero();
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     half_lj[h] = half_coulomb[h] = 0;
     if (e0 == e1) continue;
-    HalfData hi;
+    HalfData<Real> hi;
     load_half(d, h, hi);
-    SimdDouble fxi[kH], fyi[kH], fzi[kH];
+    V fxi[kH], fyi[kH], fzi[kH];
     for (int ii = 0; ii < kH; ++ii) fxi[ii] = fyi[ii] = fzi[ii] = zero;
-    SimdDouble e_lj = zero, e_coulomb = zero;
+    V e_lj = zero, e_coulomb = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       const Vec3& shift = d.shifts[entry.shift];
@@ -61,26 +66,26 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += lanes) {
         const int jb = entry.j_cluster * kC + js;
-        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
-                         zj = simd_load(d.z + jb) + shift[2];
-        SimdDouble fxj = zero, fyj = zero, fzj = zero;
+        const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                zj = simd_load(d.z + jb) + shift[2];
+        V fxj = zero, fyj = zero, fzj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ++ii) {
           const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
-          const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
-          const SimdMask inside = mask_from_bits(bits) & (r2 < d.cutoff2);
+          const V dx = V::broadcast(hi.x[ii]) - xj, dy = V::broadcast(hi.y[ii]) - yj, dz = V::broadcast(hi.z[ii]) - zj;
+          const V r2 = dx * dx + dy * dy + dz * dz;
+          const Mask inside = mask_from_bits<Real>(bits) & (r2 < d.cutoff2);
           if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
-          const SimdDouble r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
-          const SimdDouble rinv = simd_rsqrt(r2s);
-          const SimdDouble rinv2 = rinv * rinv;
-          SimdDouble v, g;
+          const V r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
+          const V rinv = simd_rsqrt(r2s);
+          const V rinv2 = rinv * rinv;
+          V v, g;
           if constexpr (kSharedSwitch) {
-            const SimdDouble r = r2s * rinv;
+            const V r = r2s * rinv;
             lj_energy_force<VdwModifier::none>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r,
                                                v, g);
-            SimdDouble vc, gc, s, ds;
+            V vc, gc, s, ds;
             rf_energy_force<CoulombModifier::none>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
             switch_value_slope(d.lj.sw, r, s, ds);
             apply_switch_factors(s, ds, rinv, v, g);
@@ -92,14 +97,14 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
             lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
             e_lj += keep(inside, v);
             if constexpr (kCoulomb) {
-              SimdDouble vc, gc;
+              V vc, gc;
               rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
               e_coulomb += keep(inside, vc);
               g += gc;
             }
           }
           g = keep(inside, g);
-          const SimdDouble gx = g * dx, gy = g * dy, gz = g * dz;
+          const V gx = g * dx, gy = g * dy, gz = g * dz;
           fxi[ii] += gx;
           fyi[ii] += gy;
           fzi[ii] += gz;
@@ -129,13 +134,14 @@ void force_halves(const PairView& d, const std::uint32_t* masks, int h0, int h1,
 template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch>
 void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
                     int h0, int h1, double* ox, double* oy, double* oz) {
+  using Mask = SimdMask;
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
   const unsigned lane_bits = (1u << lanes) - 1;
   const SimdDouble one = simd_broadcast(1.0), zero = simd_zero();
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
-    HalfData hi;
+    HalfData<double> hi;
     load_half(d, h, hi);
     const int ib = h * kH;
     double uxi[kH], uyi[kH], uzi[kH];
@@ -162,7 +168,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           if (bits == 0) continue;
           const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
           const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
-          const SimdMask inside = mask_from_bits(bits) & (r2 < d.cutoff2);
+          const Mask inside = mask_from_bits<double>(bits) & (r2 < d.cutoff2);
           const SimdDouble r2s = select(inside, r2, one);
           const SimdDouble rinv = simd_rsqrt(r2s);
           const SimdDouble rinv2 = rinv * rinv;
@@ -217,7 +223,7 @@ void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks)
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
   const unsigned lane_bits = (1u << lanes) - 1;
   for (int h = h0; h < h1; ++h) {
-    HalfData hi;
+    HalfData<double> hi;
     load_half(d, h, hi);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
@@ -231,7 +237,7 @@ void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks)
           const unsigned bits = (entry.mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
           const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
-          const SimdMask inside = mask_from_bits(bits) & (dx * dx + dy * dy + dz * dz < d.cutoff2);
+          const SimdMask inside = mask_from_bits<double>(bits) & (dx * dx + dy * dy + dz * dz < d.cutoff2);
           inside_bits |= bits_from_mask(inside) << (ii * kC + js);
         }
       }
@@ -240,19 +246,32 @@ void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks)
   }
 }
 
-template <bool kCoulomb, CoulombModifier C>
-ForceKernel force_kernel_of(VdwModifier m) {
+template <class Real>
+using ForceKernelOf = void (*)(const PairViewOf<Real>&, const std::uint32_t*, int, int, Real*, Real*, Real*, double*,
+                               double*, std::uint32_t*);
+
+template <bool kCoulomb, CoulombModifier C, class Real>
+ForceKernelOf<Real> force_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return force_halves<VdwModifier::none, kCoulomb, C, false>;
+      return force_halves<VdwModifier::none, kCoulomb, C, false, Real>;
     case VdwModifier::potential_shift:
-      return force_halves<VdwModifier::potential_shift, kCoulomb, C, false>;
+      return force_halves<VdwModifier::potential_shift, kCoulomb, C, false, Real>;
     case VdwModifier::force_switch:
-      return force_halves<VdwModifier::force_switch, kCoulomb, C, false>;
+      return force_halves<VdwModifier::force_switch, kCoulomb, C, false, Real>;
     case VdwModifier::potential_switch:
-      return force_halves<VdwModifier::potential_switch, kCoulomb, C, false>;
+      return force_halves<VdwModifier::potential_switch, kCoulomb, C, false, Real>;
   }
   return nullptr;
+}
+
+template <class Real>
+ForceKernelOf<Real> force_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+  if (shared_switch)
+    return force_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true, Real>;
+  if (!coulomb) return force_kernel_of<false, CoulombModifier::none, Real>(m);
+  return c == CoulombModifier::potential_switch ? force_kernel_of<true, CoulombModifier::potential_switch, Real>(m)
+                                                : force_kernel_of<true, CoulombModifier::none, Real>(m);
 }
 
 template <bool kCoulomb, CoulombModifier C>
@@ -275,11 +294,10 @@ HessianKernel hessian_kernel_of(VdwModifier m) {
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
 // Without Coulomb the Coulomb modifier is irrelevant: one instantiation.
 ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  if (shared_switch)
-    return force_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true>;
-  if (!coulomb) return force_kernel_of<false, CoulombModifier::none>(m);
-  return c == CoulombModifier::potential_switch ? force_kernel_of<true, CoulombModifier::potential_switch>(m)
-                                                : force_kernel_of<true, CoulombModifier::none>(m);
+  return force_kernel_for<double>(m, coulomb, c, shared_switch);
+}
+MixedForceKernel MixedForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+  return force_kernel_for<float>(m, coulomb, c, shared_switch);
 }
 HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
   if (shared_switch)
@@ -304,6 +322,7 @@ HWY_AFTER_NAMESPACE();
 namespace vimd {
 
 HWY_EXPORT(ForceKernelFor);
+HWY_EXPORT(MixedForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
 HWY_EXPORT(MaskKernelFor);
 HWY_EXPORT(Target);
@@ -311,18 +330,27 @@ HWY_EXPORT(Lanes);
 
 namespace simd {
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch) {
-  const ForceKernel kernel = HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch);
+namespace {
+// The dispatch tables return null only for a VdwModifier value outside the enum.
+template <class Kernel>
+Kernel checked(Kernel kernel) {
   if (!kernel) throw std::logic_error("unknown VdwModifier");
   return kernel;
+}
+}  // namespace
+
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch) {
+  return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+}
+
+MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                    bool shared_switch) {
+  return checked(HWY_DYNAMIC_DISPATCH(MixedForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
 }
 
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
                              bool shared_switch) {
-  const HessianKernel kernel =
-      HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch);
-  if (!kernel) throw std::logic_error("unknown VdwModifier");
-  return kernel;
+  return checked(HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }

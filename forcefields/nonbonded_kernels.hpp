@@ -16,12 +16,14 @@ namespace vimd {
 
 // Everything the inner loops read, as plain pointers. Positions, charges and LJ parameters are in
 // slot order; lj_c6[t * n_slots + s] is c6 between type t and the atom in slot s (likewise c12),
-// so a j-cluster's parameters for an i atom are contiguous vector loads.
-struct PairView {
-  const double *x, *y, *z;
-  const double* charge;
+// so a j-cluster's parameters for an i atom are contiguous vector loads. Real: double, or float
+// for the mixed-precision force kernel.
+template <class Real>
+struct PairViewOf {
+  const Real *x, *y, *z;
+  const Real* charge;
   const int* type;
-  const double *lj_c6, *lj_c12;
+  const Real *lj_c6, *lj_c12;
   std::size_t n_slots;
   const NeighborList::Entry* entries;
   const int* half_start;
@@ -30,6 +32,7 @@ struct PairView {
   LjConstants lj;
   ReactionField rf;
 };
+using PairView = PairViewOf<double>;
 
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
@@ -38,6 +41,13 @@ struct PairView {
 // inside_masks[e] receives the bits of entry e's pairs that counted.
 using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy,
                              double* fz, double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
+// The same in mixed precision: pairs computed and forces accumulated in single precision (the
+// energies of a half summed in double), as GROMACS's default build does; about twice the pairs
+// per vector. For dynamics that tolerate force errors of ~1e-6 relative (RATTLE, SHAKE, Verlet),
+// not for the variational integrator's solve.
+using MixedForceKernel = void (*)(const PairViewOf<float>&, const std::uint32_t* masks, int h0, int h1, float* fx,
+                                  float* fy, float* fz, double* half_lj, double* half_coulomb,
+                                  std::uint32_t* inside_masks);
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1).
 using MaskKernel = void (*)(const PairView&, int h0, int h1, std::uint32_t* inside_masks);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz); masks[e] selects the pairs of entry e (the
@@ -50,6 +60,8 @@ namespace simd {
 // shared_switch: LJ and Coulomb both potential-switch with the same r_switch and smoothness (then
 // the switch is evaluated once per pair, for their sum).
 ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
+MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                    bool shared_switch);
 MaskKernel mask_kernel();
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
 

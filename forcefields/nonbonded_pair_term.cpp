@@ -22,15 +22,18 @@ namespace {
 using HWY_NAMESPACE::rf_excluded_energy_force;
 using HWY_NAMESPACE::rf_excluded_hessian;
 
-// Reaction-field terms of the excluded pairs [p0, p1) (GROMACS keeps k_rf r² − c_rf for them).
-double excluded_forces(const PairView& d, const NeighborList::ExcludedPair* excluded, double cutoff2, int p0, int p1,
-                       double* fx, double* fy, double* fz) {
+// Reaction-field terms of the excluded pairs [p0, p1) (GROMACS keeps k_rf r² − c_rf for them), in
+// double precision from the view's positions, added to force buffers of the view's precision.
+template <class Real>
+double excluded_forces(const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded, double cutoff2, int p0,
+                       int p1, Real* fx, Real* fy, Real* fz) {
   double e_coulomb = 0;
   for (int p = p0; p < p1; ++p) {
     const NeighborList::ExcludedPair& pair = excluded[p];
     const Vec3& shift = d.shifts[pair.shift];
     const int i = pair.i_slot, j = pair.j_slot;
-    const double dx = d.x[i] - d.x[j] - shift[0], dy = d.y[i] - d.y[j] - shift[1], dz = d.z[i] - d.z[j] - shift[2];
+    const double dx = double(d.x[i]) - d.x[j] - shift[0], dy = double(d.y[i]) - d.y[j] - shift[1],
+                 dz = double(d.z[i]) - d.z[j] - shift[2];
     const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= cutoff2) continue;
     double v, g;
@@ -111,6 +114,7 @@ double search_skin_for(const System& system, const ForceFieldConfig& config) {
 
 NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfig& config)
     : n_atoms_(system.n_atoms()),
+      mixed_(config.precision == "mixed"),
       modifier_(parse_vdw_modifier(config.vdw_modifier)),
       lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch, config.switch_smoothness)),
       rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
@@ -167,7 +171,7 @@ void NonbondedPairTerm::prune(const Coords& q) {
   const auto& entries = list_.entries();
   const auto& half_start = list_.half_start();
   prune_masks_.resize(entries.size());
-  PairView view = pair_view();
+  PairView view = pair_view<double>();
   view.entries = entries.data();
   view.half_start = half_start.data();
   const double range = list_.cutoff() + skin_;
@@ -184,7 +188,7 @@ void NonbondedPairTerm::prune(const Coords& q) {
   // into place in half order (the pruned list does not depend on the thread count).
 #pragma omp parallel if (entries.size() >= kParallelEntries)
   {
-    list_.pack_positions(q, x_.data(), y_.data(), z_.data());
+    list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
     const int t = omp_get_thread_num();
     const auto [h0, h1] = half_block(half_start, t, omp_get_num_threads());
     kernel(view, h0, h1, prune_masks_.data());
@@ -215,16 +219,18 @@ void NonbondedPairTerm::prune(const Coords& q) {
   prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-PairView NonbondedPairTerm::pair_view() const {
+template <class Real>
+PairViewOf<Real> NonbondedPairTerm::pair_view() const {
   // With a fixed pair set the masks alone decide; its pairs interact wherever they go.
   const double cutoff2 = pair_set_fixed_ ? std::numeric_limits<double>::infinity() : cutoff2_;
-  return {x_.data(),
-          y_.data(),
-          z_.data(),
-          slot_charge_.data(),
+  const SlotArrays<Real>& a = slot_arrays<Real>();
+  return {a.x.data(),
+          a.y.data(),
+          a.z.data(),
+          a.charge.data(),
           slot_type_.data(),
-          slot_c6_.data(),
-          slot_c12_.data(),
+          a.c6.data(),
+          a.c12.data(),
           static_cast<std::size_t>(list_.n_slots()),
           entries().data(),
           half_start().data(),
@@ -239,13 +245,13 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   if (!q || force_continuous_at_cutoff_) return;
   prepare(*q);
   fixed_masks_.resize(entries().size());
-  const PairView view = pair_view();
+  const PairView view = pair_view<double>();
   const MaskKernel kernel = simd::mask_kernel();
   const auto& half_start = this->half_start();
   constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
 #pragma omp parallel if (entries().size() >= kParallelEntries)
   {
-    list_.pack_positions(*q, x_.data(), y_.data(), z_.data());
+    list_.pack_positions(*q, slots_.x.data(), slots_.y.data(), slots_.z.data());
     const auto [h0, h1] = half_block(half_start, omp_get_thread_num(), omp_get_num_threads());
     kernel(view, h0, h1, fixed_masks_.data());
   }
@@ -273,24 +279,30 @@ void NonbondedPairTerm::restore(const Carried& in) {
 void NonbondedPairTerm::refresh_layout() {
   if (layout_build_ == list_.builds()) return;
   const int n = list_.n_slots();
-  slot_charge_.assign(n, 0.0);
-  slot_type_.assign(n, 0);
   const auto& slot_atom = list_.slot_atom();
+  slot_type_.assign(n, 0);
+  slots_.charge.assign(n, 0.0);
   for (int s = 0; s < n; ++s) {
     const int a = slot_atom[s];
     if (a < 0) continue;
-    slot_charge_[s] = charge_[a];
+    slots_.charge[s] = charge_[a];
     slot_type_[s] = type_[a];
   }
-  for (auto* v : {&x_, &y_, &z_, &ux_, &uy_, &uz_}) v->resize(n);
-  slot_c6_.assign(static_cast<std::size_t>(n_types_) * n, 0.0);
-  slot_c12_.assign(slot_c6_.size(), 0.0);
+  for (auto* v : {&slots_.x, &slots_.y, &slots_.z, &ux_, &uy_, &uz_}) v->resize(n);
+  slots_.c6.assign(static_cast<std::size_t>(n_types_) * n, 0.0);
+  slots_.c12.assign(slots_.c6.size(), 0.0);
   for (int t = 0; t < n_types_; ++t)
     for (int s = 0; s < n; ++s) {
       if (slot_atom[s] < 0) continue;
-      slot_c6_[static_cast<std::size_t>(t) * n + s] = c6_[t * n_types_ + slot_type_[s]];
-      slot_c12_[static_cast<std::size_t>(t) * n + s] = c12_[t * n_types_ + slot_type_[s]];
+      slots_.c6[static_cast<std::size_t>(t) * n + s] = c6_[t * n_types_ + slot_type_[s]];
+      slots_.c12[static_cast<std::size_t>(t) * n + s] = c12_[t * n_types_ + slot_type_[s]];
     }
+  if (mixed_) {
+    mixed_slots_.charge.assign(slots_.charge.begin(), slots_.charge.end());
+    mixed_slots_.c6.assign(slots_.c6.begin(), slots_.c6.end());
+    mixed_slots_.c12.assign(slots_.c12.begin(), slots_.c12.end());
+    for (auto* v : {&mixed_slots_.x, &mixed_slots_.y, &mixed_slots_.z}) v->resize(n);
+  }
   layout_build_ = list_.builds();
   if (!pruning()) {  // a pruned list gets its work estimate when pruned
     const auto& entries = list_.entries();
@@ -304,20 +316,15 @@ void NonbondedPairTerm::refresh_layout() {
   }
 }
 
-void NonbondedPairTerm::ensure_buffers() {
-  const std::size_t size = 3 * static_cast<std::size_t>(list_.n_slots());
-  thread_buffers_.resize(omp_get_max_threads());
-  for (auto& b : thread_buffers_)
-    if (b.size() != size) b.resize(size);
-}
-
 // Runs pack() (worksharing loops that fill the slot arrays), then kernel(thread, n_threads, fx, fy,
 // fz) on every thread with a zeroed private buffer, then adds the buffers, in thread order, to out:
 // one parallel region per evaluation.
-template <class Pack, class Kernel>
-void NonbondedPairTerm::run_parallel(Pack&& pack, Kernel&& kernel, Coords& out) {
-  ensure_buffers();
+template <class Real, class Pack, class Kernel>
+void NonbondedPairTerm::run_parallel(std::vector<std::vector<Real>>& buffers, Pack&& pack, Kernel&& kernel,
+                                     Coords& out) {
   const int n = list_.n_slots();
+  buffers.resize(omp_get_max_threads());
+  for (auto& b : buffers) b.resize(3 * static_cast<std::size_t>(n));
   const auto& slot_atom = list_.slot_atom();
   // Small lists run on one thread: starting a team would cost more than the pairs.
   constexpr std::size_t kParallelEntries = 2048;
@@ -325,8 +332,8 @@ void NonbondedPairTerm::run_parallel(Pack&& pack, Kernel&& kernel, Coords& out) 
   {
     pack();
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    double* buffer = thread_buffers_[t].data();
-    std::fill(buffer, buffer + 3 * static_cast<std::size_t>(n), 0.0);
+    Real* buffer = buffers[t].data();
+    std::fill(buffer, buffer + 3 * static_cast<std::size_t>(n), Real(0));
     kernel(t, nt, buffer, buffer + n, buffer + 2 * n);
 #pragma omp barrier
 #pragma omp for schedule(static)
@@ -335,7 +342,7 @@ void NonbondedPairTerm::run_parallel(Pack&& pack, Kernel&& kernel, Coords& out) 
       if (a < 0) continue;
       double sx = 0, sy = 0, sz = 0;
       for (int k = 0; k < nt; ++k) {
-        const double* b = thread_buffers_[k].data();
+        const Real* b = buffers[k].data();
         sx += b[s];
         sy += b[n + s];
         sz += b[2 * n + s];
@@ -356,11 +363,20 @@ constexpr int kExcludedBlock = 1024;
 
 void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
   prepare(q);
-  const PairView view = pair_view();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const ForceKernel pair_kernel = simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
+  if (mixed_)
+    add_pair_forces(mixed_slots_, simd::mixed_force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_), q, f,
+                    energies);
+  else
+    add_pair_forces(slots_, simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_), q, f, energies);
+}
+
+template <class Real, class Kernel>
+void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_kernel, const Coords& q, Coords& f,
+                                        std::span<double> energies) {
+  const PairViewOf<Real> view = pair_view<Real>();
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
-  const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
+  const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const int n_halves = list_.n_halves();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   partial_energies_.assign(2 * n_halves + n_blocks, 0.0);
@@ -368,9 +384,11 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
   const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : nullptr;
-  std::uint32_t* inside_masks = hessian_requested_ && !pair_set_fixed_ ? record_inside_masks(q).data() : nullptr;
-  run_parallel([&] { list_.pack_positions(q, x_.data(), y_.data(), z_.data()); },
-               [&](int t, int nt, double* fx, double* fy, double* fz) {
+  // The Hessian–vector products are double precision: they reuse only masks a double pass recorded.
+  std::uint32_t* inside_masks =
+      hessian_requested_ && !pair_set_fixed_ && !mixed_ ? record_inside_masks(q).data() : nullptr;
+  run_parallel(slots.thread_buffers, [&] { list_.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
+               [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
                  const auto [h0, h1] = half_block(half_work_, t, nt);
                  pair_kernel(view, masks, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
                  for (int b = t; b < n_blocks; b += nt)
@@ -389,7 +407,7 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
 void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
   hessian_requested_ = true;
   prepare(q);
-  const PairView view = pair_view();
+  const PairView view = pair_view<double>();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
@@ -404,8 +422,9 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
     masks = list_masks_.data();
   }
   run_parallel(
+      slots_.thread_buffers,
       [&] {
-        list_.pack_positions(q, x_.data(), y_.data(), z_.data());
+        list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
         list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
       },
       [&](int t, int nt, double* ox, double* oy, double* oz) {

@@ -17,6 +17,7 @@
 // No atomics, no races. Energies are summed from per-half partials in a fixed order, so they do
 // not depend on the thread count at all; forces and HVPs differ by round-off only.
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "engine/config.hpp"
@@ -81,12 +82,31 @@ class NonbondedPairTerm : public ForceTerm {
   const std::vector<int>& half_start() const { return pruning() ? pruned_half_start_ : list_.half_start(); }
   // Changes whenever entries() does (masks and caches refer to its entry numbers).
   long list_version() const { return list_.builds() + prunes_; }
-  PairView pair_view() const;
-  void ensure_buffers();
-  template <class Pack, class Kernel>
-  void run_parallel(Pack&& pack, Kernel&& kernel, Coords& out);
+  // Slot-ordered arrays in one precision: double always, float as well for mixed precision.
+  template <class Real>
+  struct SlotArrays {
+    std::vector<Real> charge;
+    std::vector<Real> c6, c12;  // [type_i * n_slots + slot_j]
+    std::vector<Real> x, y, z;  // positions, packed per evaluation
+    std::vector<std::vector<Real>> thread_buffers;  // per thread: x, y, z blocks of n_slots
+  };
+  template <class Real>
+  const SlotArrays<Real>& slot_arrays() const {
+    if constexpr (std::is_same_v<Real, float>)
+      return mixed_slots_;
+    else
+      return slots_;
+  }
+  template <class Real>
+  PairViewOf<Real> pair_view() const;
+  template <class Real, class Kernel>
+  void add_pair_forces(SlotArrays<Real>& slots, Kernel pair_kernel, const Coords& q, Coords& f,
+                       std::span<double> energies);
+  template <class Real, class Pack, class Kernel>
+  void run_parallel(std::vector<std::vector<Real>>& buffers, Pack&& pack, Kernel&& kernel, Coords& out);
 
   int n_atoms_;
+  bool mixed_;  // precision = "mixed": forces from the single-precision kernel
   VdwModifier modifier_;
   LjConstants lj_;
   ReactionField rf_;
@@ -108,11 +128,10 @@ class NonbondedPairTerm : public ForceTerm {
   long prunes_ = 0;
   double prune_seconds_ = 0;
   long layout_build_ = -1;  // list build the slot arrays below belong to
-  std::vector<double> slot_charge_;
   std::vector<int> slot_type_;
-  std::vector<double> slot_c6_, slot_c12_;  // [type_i * n_slots + slot_j]
-  std::vector<double> x_, y_, z_, ux_, uy_, uz_;
-  std::vector<std::vector<double>> thread_buffers_;  // per thread: x, y, z blocks of n_slots
+  SlotArrays<double> slots_;
+  SlotArrays<float> mixed_slots_;
+  std::vector<double> ux_, uy_, uz_;
   std::vector<double> partial_energies_;             // per i-half and per excluded-pair block
   std::vector<InsideMasks> inside_cache_;
   std::vector<std::uint32_t> list_masks_;

@@ -2,7 +2,8 @@
 // functional forms (lennard_jones-inl.h, reaction_field-inl.h) are written once, as templates on
 // the number type, and instantiated for double (reference sums, tests) and for SimdDouble (the
 // pair loops of nonbonded_kernels.cpp). Its width is the target's: 8 lanes on AVX-512, 4 on AVX2,
-// 2 on SSE4. No intrinsics outside this file; Highway picks the target at run time.
+// 2 on SSE4. SimdFloat, the same in single precision (up to 8 lanes), serves the mixed-precision
+// force kernel. No intrinsics outside this file; Highway picks the target at run time.
 //
 // Highway's per-target header: included once per compiled target (foreach_target.h re-includes
 // the kernel file), so it has a toggle guard instead of #pragma once, and everything lives in
@@ -23,19 +24,52 @@ namespace vimd {
 namespace HWY_NAMESPACE {
 
 namespace hn = hwy::HWY_NAMESPACE;
-using SimdTag = hn::ScalableTag<double>;
-using SimdMask = hn::Mask<SimdTag>;
 
-// Arithmetic with doubles on either side, as the scalar kernels write it.
-struct SimdDouble {
-  hn::Vec<SimdTag> v;
+// Tags of the two arithmetic precisions: doubles at the target's full width, and floats (the
+// mixed-precision force kernel) at up to 8 lanes, so that a j-cluster of 8 atoms is one AVX2 or
+// AVX-512 (256-bit) vector of floats.
+template <class Real>
+struct SimdTagOf {
+  using type = hn::ScalableTag<double>;
+};
+template <>
+struct SimdTagOf<float> {
+  using type = hn::CappedTag<float, 8>;
 };
 
-HWY_INLINE SimdDouble simd_broadcast(double x) { return {hn::Set(SimdTag(), x)}; }
-HWY_INLINE SimdDouble simd_zero() { return {hn::Zero(SimdTag())}; }
-HWY_INLINE SimdDouble simd_load(const double* p) { return {hn::LoadU(SimdTag(), p)}; }
-HWY_INLINE void simd_store(double* p, SimdDouble x) { hn::StoreU(x.v, SimdTag(), p); }
-HWY_INLINE double simd_sum(SimdDouble x) { return hn::GetLane(hn::SumOfLanes(SimdTag(), x.v)); }
+// Arithmetic with doubles on either side, as the scalar kernels write it (a double operand is
+// rounded to Real).
+template <class Real>
+struct SimdVec {
+  using Tag = typename SimdTagOf<Real>::type;
+  hn::Vec<Tag> v;
+  static HWY_INLINE SimdVec broadcast(double x) { return {hn::Set(Tag(), static_cast<Real>(x))}; }
+  static HWY_INLINE SimdVec zero() { return {hn::Zero(Tag())}; }
+  static HWY_INLINE int lanes() { return static_cast<int>(hn::Lanes(Tag())); }
+};
+template <class Real>
+struct SimdMaskOf {
+  hn::Mask<typename SimdVec<Real>::Tag> m;
+};
+using SimdDouble = SimdVec<double>;
+using SimdFloat = SimdVec<float>;
+using SimdTag = SimdDouble::Tag;
+using SimdMask = SimdMaskOf<double>;
+
+HWY_INLINE SimdDouble simd_broadcast(double x) { return SimdDouble::broadcast(x); }
+HWY_INLINE SimdDouble simd_zero() { return SimdDouble::zero(); }
+template <class Real>
+HWY_INLINE SimdVec<Real> simd_load(const Real* p) {
+  return {hn::LoadU(typename SimdVec<Real>::Tag(), p)};
+}
+template <class Real>
+HWY_INLINE void simd_store(Real* p, SimdVec<Real> x) {
+  hn::StoreU(x.v, typename SimdVec<Real>::Tag(), p);
+}
+template <class Real>
+HWY_INLINE double simd_sum(SimdVec<Real> x) {
+  return static_cast<double>(hn::GetLane(hn::SumOfLanes(typename SimdVec<Real>::Tag(), x.v)));
+}
 // 1/√x to full double precision without the slow square root and division: the single-precision
 // estimate (12 bits) and three Newton steps (error 1e-7, 1e-14, then rounding). The division and
 // square root units are the pair loops' bottleneck otherwise.
@@ -46,40 +80,112 @@ HWY_INLINE SimdDouble simd_rsqrt(SimdDouble x) {
   for (int k = 0; k < 3; ++k) y = hn::Mul(y, hn::NegMulAdd(half_x, hn::Mul(y, y), three_halves));
   return {y};
 }
-HWY_INLINE SimdDouble select(SimdMask m, SimdDouble yes, SimdDouble no) { return {hn::IfThenElse(m, yes.v, no.v)}; }
-HWY_INLINE SimdDouble keep(SimdMask m, SimdDouble x) { return {hn::IfThenElseZero(m, x.v)}; }
-HWY_INLINE SimdMask operator<(SimdDouble a, double b) { return hn::Lt(a.v, hn::Set(SimdTag(), b)); }
-HWY_INLINE SimdMask operator&(SimdMask a, SimdMask b) { return hn::And(a, b); }
-// Lanes whose bit is set in the low Lanes() bits of `bits`, and back.
-HWY_INLINE SimdMask mask_from_bits(unsigned bits) {
-  const std::uint8_t byte = static_cast<std::uint8_t>(bits);
-  return hn::LoadMaskBits(SimdTag(), &byte);
+// Single precision: the estimate and one Newton step (error ~2e-7, a few float ulp, as GROMACS's
+// mixed-precision kernels). The portable SCALAR estimate (the bit trick, error ~2e-3) needs two.
+HWY_INLINE SimdFloat simd_rsqrt(SimdFloat x) {
+  using Tag = SimdFloat::Tag;
+  constexpr int kNewtonSteps = HWY_TARGET == HWY_SCALAR ? 2 : 1;
+  hn::Vec<Tag> y = hn::ApproximateReciprocalSqrt(x.v);
+  const hn::Vec<Tag> half_x = hn::Mul(x.v, hn::Set(Tag(), 0.5f)), three_halves = hn::Set(Tag(), 1.5f);
+  for (int k = 0; k < kNewtonSteps; ++k) y = hn::Mul(y, hn::NegMulAdd(half_x, hn::Mul(y, y), three_halves));
+  return {y};
 }
-HWY_INLINE unsigned bits_from_mask(SimdMask m) {
+template <class Real>
+HWY_INLINE SimdVec<Real> select(SimdMaskOf<Real> m, SimdVec<Real> yes, SimdVec<Real> no) {
+  return {hn::IfThenElse(m.m, yes.v, no.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> keep(SimdMaskOf<Real> m, SimdVec<Real> x) {
+  return {hn::IfThenElseZero(m.m, x.v)};
+}
+template <class Real>
+HWY_INLINE SimdMaskOf<Real> operator<(SimdVec<Real> a, double b) {
+  return {hn::Lt(a.v, SimdVec<Real>::broadcast(b).v)};
+}
+template <class Real>
+HWY_INLINE SimdMaskOf<Real> operator&(SimdMaskOf<Real> a, SimdMaskOf<Real> b) {
+  return {hn::And(a.m, b.m)};
+}
+// Lanes whose bit is set in the low lanes() bits of `bits`, and back.
+template <class Real>
+HWY_INLINE SimdMaskOf<Real> mask_from_bits(unsigned bits) {
+  const std::uint8_t byte = static_cast<std::uint8_t>(bits);
+  return {hn::LoadMaskBits(typename SimdVec<Real>::Tag(), &byte)};
+}
+template <class Real>
+HWY_INLINE unsigned bits_from_mask(SimdMaskOf<Real> m) {
   std::uint8_t bytes[8] = {};
-  hn::StoreMaskBits(SimdTag(), m, bytes);
+  hn::StoreMaskBits(typename SimdVec<Real>::Tag(), m.m, bytes);
   return bytes[0];
 }
 
-HWY_INLINE SimdDouble operator+(SimdDouble a, SimdDouble b) { return {hn::Add(a.v, b.v)}; }
-HWY_INLINE SimdDouble operator-(SimdDouble a, SimdDouble b) { return {hn::Sub(a.v, b.v)}; }
-HWY_INLINE SimdDouble operator*(SimdDouble a, SimdDouble b) { return {hn::Mul(a.v, b.v)}; }
-HWY_INLINE SimdDouble operator/(SimdDouble a, SimdDouble b) { return {hn::Div(a.v, b.v)}; }
-HWY_INLINE SimdDouble operator-(SimdDouble a) { return {hn::Neg(a.v)}; }
-HWY_INLINE SimdDouble operator+(SimdDouble a, double b) { return a + simd_broadcast(b); }
-HWY_INLINE SimdDouble operator-(SimdDouble a, double b) { return a - simd_broadcast(b); }
-HWY_INLINE SimdDouble operator*(SimdDouble a, double b) { return a * simd_broadcast(b); }
-HWY_INLINE SimdDouble operator/(SimdDouble a, double b) { return a / simd_broadcast(b); }
-HWY_INLINE SimdDouble operator+(double a, SimdDouble b) { return simd_broadcast(a) + b; }
-HWY_INLINE SimdDouble operator-(double a, SimdDouble b) { return simd_broadcast(a) - b; }
-HWY_INLINE SimdDouble operator*(double a, SimdDouble b) { return simd_broadcast(a) * b; }
-HWY_INLINE SimdDouble operator/(double a, SimdDouble b) { return simd_broadcast(a) / b; }
-HWY_INLINE SimdDouble& operator+=(SimdDouble& a, SimdDouble b) { return a = a + b; }
-HWY_INLINE SimdDouble& operator-=(SimdDouble& a, SimdDouble b) { return a = a - b; }
+template <class Real>
+HWY_INLINE SimdVec<Real> operator+(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Add(a.v, b.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator-(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Sub(a.v, b.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator*(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Mul(a.v, b.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator/(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Div(a.v, b.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator-(SimdVec<Real> a) {
+  return {hn::Neg(a.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator+(SimdVec<Real> a, double b) {
+  return a + SimdVec<Real>::broadcast(b);
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator-(SimdVec<Real> a, double b) {
+  return a - SimdVec<Real>::broadcast(b);
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator*(SimdVec<Real> a, double b) {
+  return a * SimdVec<Real>::broadcast(b);
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator/(SimdVec<Real> a, double b) {
+  return a / SimdVec<Real>::broadcast(b);
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator+(double a, SimdVec<Real> b) {
+  return SimdVec<Real>::broadcast(a) + b;
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator-(double a, SimdVec<Real> b) {
+  return SimdVec<Real>::broadcast(a) - b;
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator*(double a, SimdVec<Real> b) {
+  return SimdVec<Real>::broadcast(a) * b;
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> operator/(double a, SimdVec<Real> b) {
+  return SimdVec<Real>::broadcast(a) / b;
+}
+template <class Real>
+HWY_INLINE SimdVec<Real>& operator+=(SimdVec<Real>& a, SimdVec<Real> b) {
+  return a = a + b;
+}
+template <class Real>
+HWY_INLINE SimdVec<Real>& operator-=(SimdVec<Real>& a, SimdVec<Real> b) {
+  return a = a - b;
+}
 
 // max(x, 0), for scalars and vectors alike (the kernels are templates on the number type).
 HWY_INLINE double positive_part(double x) { return x > 0 ? x : 0.0; }
-HWY_INLINE SimdDouble positive_part(SimdDouble x) { return {hn::Max(x.v, hn::Zero(SimdTag()))}; }
+template <class Real>
+HWY_INLINE SimdVec<Real> positive_part(SimdVec<Real> x) {
+  return {hn::Max(x.v, hn::Zero(typename SimdVec<Real>::Tag()))};
+}
 
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd

@@ -130,6 +130,22 @@ void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const 
   EXPECT_LT(relative_difference(hu, ref.hu), 1e-12) << what;
 }
 
+// precision = "mixed": energies and forces from the single-precision kernel, to float accuracy
+// (relative 1e-6 of the summed magnitudes, 1e-5 of the force field); the Hessian–vector products stay double.
+void expect_mixed_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q,
+                                      const std::string& what) {
+  std::mt19937_64 rng(99);
+  const Coords u = random_vectors(static_cast<int>(q.cols()), rng, 1.0);
+  const Reference ref = brute_force(term, s, q, u);
+  const auto got = testing::evaluate(term, q);
+  EXPECT_NEAR(got.energies[0], ref.lj, 1e-6 * ref.lj_scale) << what;
+  EXPECT_NEAR(got.energies[1], ref.coulomb, 1e-6 * ref.coulomb_scale) << what;
+  const double force_error = relative_difference(got.f, ref.f);
+  EXPECT_LT(force_error, 1e-5) << what;
+  EXPECT_GT(force_error, 1e-12) << what << ": no single-precision rounding at all, is the mixed kernel running?";
+  EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what;
+}
+
 const char* const kModifiers[] = {"none", "potential-shift", "force-switch", "potential-switch"};
 
 // The SIMD kernels with the Coulomb switch (from 0.05 nm: excluded pairs switched too) and a
@@ -213,8 +229,12 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
     ASSERT_EQ(simd::target_name(), target);
     for (const char* coulomb : {"reaction-field", "none"})
       for (const char* modifier : kModifiers) {
-        NonbondedPairTerm term(system, testing::pair_config(modifier, coulomb, 0.0));
+        auto config = testing::pair_config(modifier, coulomb, 0.0);
+        NonbondedPairTerm term(system, config);
         expect_matches_brute_force(term, system, q, target + " " + modifier + " " + coulomb);
+        config.precision = "mixed";
+        NonbondedPairTerm mixed_term(system, config);
+        expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed " + modifier + " " + coulomb);
       }
     // Both switched: by the same S (one switch for the sum, 0.7 nm) and by different ones.
     for (double coulomb_switch : {0.7, 0.6}) {
@@ -225,6 +245,10 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
       NonbondedPairTerm term(system, config);
       expect_matches_brute_force(term, system, q, target + " LJ and Coulomb switched, Coulomb from " +
                                                       std::to_string(coulomb_switch));
+      config.precision = "mixed";
+      NonbondedPairTerm mixed_term(system, config);
+      expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed, LJ and Coulomb switched, Coulomb from " +
+                                                                  std::to_string(coulomb_switch));
     }
   }
   simd::use_target("");
