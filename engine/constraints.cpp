@@ -108,6 +108,15 @@ struct Constraints::Layout {
   std::vector<Dynamic> dynamic;
   int n_small = 0;
   Eigen::VectorXd ones;  // the weights when the caller passes none
+  // Rigid isosceles triangles (3-site water) among the small clusters, by Cluster::slot: apex atom
+  // (O), the two others (H), and where each side sits in the cluster (ab = apex-h1, ac, bc).
+  struct Triangle {
+    bool valid = false;
+    int apex, h1, h2;
+    int ab, ac, bc;
+    double d_side, d_base;
+  };
+  std::vector<Triangle> triangles;
 
   Vec3 bond(const Coords& q, int p) const { return box.minimum_image(q.col(atom_i[p]) - q.col(atom_j[p])); }
   // Entry factor of S = G W Gᵀ for positions p, r (p == r gives w_i + w_j).
@@ -131,6 +140,81 @@ struct Constraints::Layout {
       throw std::invalid_argument(std::string("constraints: ") + what + " has " + std::to_string(x.cols()) +
                                   " atoms, the system " + std::to_string(n_atoms));
   }
+  // SETTLE (Miyamoto & Kollman, J. Comput. Chem. 13, 952 (1992)): the analytic solution of the
+  // same equations as solve_small_positions (displacements along the q_ref bonds, weighted by w)
+  // for a rigid isosceles triangle whose two base atoms have equal weights: the centre of mass
+  // stays, each atom keeps its height above the q_ref plane, and one in-plane rotation is fixed by
+  // the torque condition. False (q untouched) where it does not apply or did not reach tolerance
+  // (q_ref off the constraints, degenerate geometry); Newton then solves the cluster.
+  bool settle_positions(const Cluster& cl, const Coords& q_ref, Coords& q, const double* w, double tolerance,
+                        ClusterOutcome& out) const {
+    const Triangle& t = triangles[cl.slot];
+    if (!t.valid || w[t.h1] != w[t.h2] || !(w[t.apex] > 0) || !(w[t.h1] > 0)) return false;
+    // Bond vectors from the apex, with the periodic image of q_ref (as solve_small_positions).
+    const Vec3 raw_b = q_ref.col(t.h1) - q_ref.col(t.apex), raw_c = q_ref.col(t.h2) - q_ref.col(t.apex);
+    const Vec3 b0 = box.minimum_image(raw_b), c0 = box.minimum_image(raw_c);
+    if (!within(b0.squaredNorm(), t.d_side, tolerance) || !within(c0.squaredNorm(), t.d_side, tolerance) ||
+        !within((c0 - b0).squaredNorm(), t.d_base, tolerance))
+      return false;
+    const Vec3 image_b = b0 - raw_b, image_c = c0 - raw_c;
+    const Vec3 apex1 = q.col(t.apex);
+    const Vec3 b1_apex = q.col(t.h1) - apex1 + image_b, c1_apex = q.col(t.h2) - apex1 + image_c;
+    const int position[3] = {t.ab, t.ac, t.bc};
+    auto outcome = [&](const Vec3& ab, const Vec3& ac, int iterations) {
+      const double deviation[3] = {relative_deviation(ab.squaredNorm(), t.d_side),
+                                   relative_deviation(ac.squaredNorm(), t.d_side),
+                                   relative_deviation((ac - ab).squaredNorm(), t.d_base)};
+      out = ClusterOutcome{};
+      out.iterations = iterations;
+      out.worst = cl.begin + position[0];
+      for (int k = 0; k < 3; ++k) {
+        if (!(deviation[k] <= tolerance)) return false;  // also NaN: a displacement too large for the triangle
+        if (deviation[k] > out.deviation) out.deviation = deviation[k], out.worst = cl.begin + position[k];
+      }
+      return true;
+    };
+    // Already on the constraints: left exactly as it is, as Newton leaves it.
+    if (within(b1_apex.squaredNorm(), t.d_side, tolerance) && within(c1_apex.squaredNorm(), t.d_side, tolerance) &&
+        within((c1_apex - b1_apex).squaredNorm(), t.d_base, tolerance) && outcome(b1_apex, c1_apex, 0))
+      return true;
+    // Body frame: centre of mass at the origin, apex at (0, ra), base atoms at (∓rc, −rb).
+    const double w_apex = w[t.apex], w_h = w[t.h1];
+    const double base_weight = w_apex / (w_h + 2 * w_apex);  // m_H / M
+    const double rc = 0.5 * t.d_base, height = std::sqrt(t.d_side * t.d_side - rc * rc);
+    const double ra = 2 * base_weight * height, rb = height - ra;
+    const Vec3 com = base_weight * (b1_apex + c1_apex);  // relative to the new apex
+    const Vec3 a1 = -com, b1 = b1_apex - com, c1 = c1_apex - com;
+    // Frame: z normal to the q_ref plane, x normal to the apex's offset and z.
+    Vec3 n0 = b0.cross(c0), n1 = a1.cross(n0), n2 = n0.cross(n1);
+    n0.normalize();
+    n1.normalize();
+    n2.normalize();
+    const double b0x = n1.dot(b0), b0y = n2.dot(b0), c0x = n1.dot(c0), c0y = n2.dot(c0);
+    const double a1z = n0.dot(a1);
+    const double b1x = n1.dot(b1), b1y = n2.dot(b1), b1z = n0.dot(b1);
+    const double c1x = n1.dot(c1), c1y = n2.dot(c1), c1z = n0.dot(c1);
+    const double sin_phi = a1z / ra, cos_phi = std::sqrt(1 - sin_phi * sin_phi);
+    const double sin_psi = (b1z - c1z) / (2 * rc * cos_phi), cos_psi = std::sqrt(1 - sin_psi * sin_psi);
+    const double a2y = ra * cos_phi, b2x = -rc * cos_psi;
+    const double t1 = -rb * cos_phi, t2 = rc * sin_psi * sin_phi;
+    const double b2y = t1 - t2, c2y = t1 + t2;
+    const double alpha = b2x * (b0x - c0x) + b0y * b2y + c0y * c2y;
+    const double beta = b2x * (c0y - b0y) + b0x * b2y + c0x * c2y;
+    const double gamma = b0x * b1y - b1x * b0y + c0x * c1y - c1x * c0y;
+    const double al2be2 = alpha * alpha + beta * beta;
+    const double sin_theta = (alpha * gamma - beta * std::sqrt(al2be2 - gamma * gamma)) / al2be2;
+    const double cos_theta = std::sqrt(1 - sin_theta * sin_theta);
+    auto lab = [&](double x, double y, double z) { return Vec3(apex1 + com + x * n1 + y * n2 + z * n0); };
+    const Vec3 a3 = lab(-a2y * sin_theta, a2y * cos_theta, a1z);
+    const Vec3 b3 = lab(b2x * cos_theta - b2y * sin_theta, b2x * sin_theta + b2y * cos_theta, b1z);
+    const Vec3 c3 = lab(-b2x * cos_theta - c2y * sin_theta, -b2x * sin_theta + c2y * cos_theta, c1z);
+    if (!outcome(b3 - a3, c3 - a3, 1)) return false;
+    q.col(t.apex) = a3;
+    q.col(t.h1) = b3 - image_b;
+    q.col(t.h2) = c3 - image_c;
+    return true;
+  }
+
   // Newton for a cluster of at most three constraints (rigid water), entirely on the stack:
   // J = G(q) W G(q_ref)ᵀ is rebuilt every iteration (quadratic convergence) and inverted in
   // closed form; unused rows of the padded 3×3 system are the identity.
@@ -354,6 +438,42 @@ struct Constraints::Workspace {
   std::vector<char> failed, singular;
 };
 
+namespace {
+
+// The SETTLE geometry of a small cluster: three constraints joining three atoms, two of them of
+// equal length (the apex's sides); invalid otherwise.
+template <class Layout>
+typename Layout::Triangle rigid_triangle(const Layout& L, const typename Layout::Cluster& cl) {
+  typename Layout::Triangle t;
+  if (cl.size() != 3) return t;
+  const int b = cl.begin;
+  for (int apex_side = 0; apex_side < 3; ++apex_side) {
+    // Sides k and m share the apex; side `apex_side` is the base, opposite to it.
+    const int k = (apex_side + 1) % 3, m = (apex_side + 2) % 3;
+    const int ki = L.atom_i[b + k], kj = L.atom_j[b + k], mi = L.atom_i[b + m], mj = L.atom_j[b + m];
+    const int apex = (ki == mi || ki == mj) ? ki : (kj == mi || kj == mj) ? kj : -1;
+    if (apex < 0) return t;  // not a triangle
+    const int h1 = ki == apex ? kj : ki, h2 = mi == apex ? mj : mi;
+    const int base_i = L.atom_i[b + apex_side], base_j = L.atom_j[b + apex_side];
+    if (!((base_i == h1 && base_j == h2) || (base_i == h2 && base_j == h1)) || h1 == h2) return t;
+    const double dk = L.length[b + k], dm = L.length[b + m], base = L.length[b + apex_side];
+    if (std::abs(dk - dm) > 1e-12 * dk || !(base < 2 * dk)) continue;
+    t.valid = true;
+    t.apex = apex;
+    t.h1 = h1;
+    t.h2 = h2;
+    t.ab = k;
+    t.ac = m;
+    t.bc = apex_side;
+    t.d_side = dk;
+    t.d_base = base;
+    return t;
+  }
+  return t;
+}
+
+}  // namespace
+
 Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     : list_(std::move(list)), n_atoms_(n_atoms), box_(box) {
   const int n = size();
@@ -438,6 +558,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     cl.kind = m <= kSmallMax ? Kind::Small : m <= kDenseMax ? Kind::Dense : Kind::Sparse;
     if (cl.kind == Kind::Small) {
       cl.slot = L.n_small++;
+      L.triangles.push_back(rigid_triangle(L, cl));
       L.clusters.push_back(cl);
       continue;
     }
@@ -736,10 +857,12 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
 #pragma omp parallel for schedule(guided) if (size() > kParallelMin)
   for (int c = 0; c < nc; ++c) {
     const auto& cl = L.clusters[c];
-    const ClusterOutcome out =
-        cl.kind == Kind::Small
-            ? L.solve_small_positions(cl, q_ref, q, wp, tolerance, max_iterations, ws.lambda.data() + cl.begin)
-            : solve_dynamic(cl);
+    ClusterOutcome out;
+    // SETTLE gives positions, not multipliers: only where nobody asks for them.
+    if (cl.kind != Kind::Small || lambda_out || !L.settle_positions(cl, q_ref, q, wp, tolerance, out))
+      out = cl.kind == Kind::Small
+                ? L.solve_small_positions(cl, q_ref, q, wp, tolerance, max_iterations, ws.lambda.data() + cl.begin)
+                : solve_dynamic(cl);
     ws.iterations[c] = out.iterations;
     ws.worst[c] = out.worst;
     ws.deviation[c] = out.deviation;

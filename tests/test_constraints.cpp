@@ -247,6 +247,37 @@ TEST(Constraints, LargeChainCorrectionsSwitchToExactNewton) {
   EXPECT_LE(total, 110);
 }
 
+// Rigid waters are solved by SETTLE unless multipliers are asked for (then by Newton): both solve
+// the same equations, so they must agree to round-off, for waters split by the box faces too (all
+// atoms wrapped). SETTLE does it in one pass; with unequal hydrogen weights it does not apply and
+// Newton runs.
+TEST(Constraints, SettleMatchesNewtonOnRigidWater) {
+  System s;
+  Coords q;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> uniform(0.0, 2.0);
+  s.box.length = Vec3::Constant(2.0);
+  for (int k = 0; k < 60; ++k) add_water(s, q, Vec3(uniform(rng), uniform(rng), uniform(rng)), rng);
+  testing::wrap(s.box, q);
+  const Constraints constraints(s.constraints, s.n_atoms(), s.box);
+  Eigen::VectorXd w = s.mass.cwiseInverse();
+  for (const bool equal_hydrogens : {true, false}) {
+    if (!equal_hydrogens) w[2] *= 1.5;  // the first water's second hydrogen
+    for (double scale : {0.001, 0.01}) {
+      const Coords start = q + random_coords(s.n_atoms(), scale, rng);
+      Coords settled = start, newton = start;
+      Eigen::VectorXd lambda;
+      const int passes = constraints.solve_positions(q, settled, w, 1e-13, 0, 100);
+      const int iterations = constraints.solve_positions(q, newton, w, 1e-13, 0, 100, &lambda);
+      EXPECT_LE(constraints.max_relative_deviation(settled), 1e-13);
+      EXPECT_LT((settled - newton).cwiseAbs().maxCoeff(), 1e-13) << "scale " << scale;
+      EXPECT_GT(iterations, 1);
+      // The most iterations any cluster took: 1 if every water was settled.
+      EXPECT_EQ(passes == 1, equal_hydrogens) << "scale " << scale << ", " << passes << " iterations";
+    }
+  }
+}
+
 TEST(Constraints, SolvePositionsOnSatisfiedConstraintsDoesNothing) {
   Zoo z = make_zoo();
   Coords q = z.q;
