@@ -308,7 +308,7 @@ HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, b
 }
 MaskKernel MaskKernelFor() { return mask_halves; }
 std::int64_t Target() { return HWY_TARGET; }
-int Lanes() { return static_cast<int>(hn::Lanes(SimdTag())); }
+int Lanes() { return SimdDouble::lanes(); }
 
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd

@@ -72,28 +72,18 @@ void excluded_hessian(const PairView& d, const NeighborList::ExcludedPair* exclu
   }
 }
 
-// i-halves of thread t when nt threads share the list, balanced by `prefix` (cumulative work per
-// half: entries, or the kernels' estimated work).
-template <class Count>
-std::pair<int, int> half_block(const std::vector<Count>& prefix, int t, int nt) {
-  const long total = prefix.back();
-  auto boundary = [&](int k) {
-    if (k == 0) return 0;
-    if (k == nt) return static_cast<int>(prefix.size()) - 1;
-    const long target = total * k / nt;
-    return static_cast<int>(std::lower_bound(prefix.begin(), prefix.end(), target) - prefix.begin());
-  };
-  return {boundary(t), boundary(t + 1)};
-}
+// The i-halves in chunks of kHalfChunk, dealt to the threads in turn: early halves (a cluster
+// paired with all later ones) cost more per entry than late ones (fewer cache hits on their
+// j-clusters), so contiguous blocks of equal entry counts left one of two threads waiting 25 % of
+// the kernel time. The deal depends only on the thread count, as the summation order must.
+constexpr int kHalfChunk = 16;
 
-// The pair kernels' work for one entry, in vector pair computations (a row of `lanes` pairs with
-// any bit set costs one) plus one for visiting it: entries differ several-fold (a j-cluster at the
-// edge of the range has few pairs), so splitting by entry count leaves one thread waiting.
-long entry_work(std::uint32_t mask, int lanes) {
-  const std::uint32_t group = (1u << lanes) - 1;
-  long work = 1;
-  for (int shift = 0; shift < 32; shift += lanes) work += ((mask >> shift) & group) != 0;
-  return work;
+int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
+
+// f(h0, h1) for the chunks of thread t of nt.
+template <class F>
+void for_thread_chunks(int n_halves, int t, int nt, F&& f) {
+  for (int c = t; c < half_chunks(n_halves); c += nt) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
 }
 
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
@@ -178,42 +168,37 @@ void NonbondedPairTerm::prune(const Coords& q) {
   view.cutoff2 = range * range;
   const MaskKernel kernel = simd::mask_kernel();
   const int n_halves = list_.n_halves();
-  const int lanes = simd::lanes();
   pruned_half_start_.resize(n_halves + 1);
   pruned_half_start_[0] = 0;
-  half_work_.assign(n_halves + 1, 0);
-  std::vector<int> thread_kept(omp_get_max_threads() + 1, 0);
+  std::vector<int> chunk_kept(half_chunks(n_halves) + 1, 0);
   constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
-  // Each thread prunes its block of halves and counts what it keeps; the blocks are then copied
-  // into place in half order (the pruned list does not depend on the thread count).
+  // Each thread prunes its chunks of halves and counts what each keeps; the chunks are then
+  // copied into place in half order (the pruned list does not depend on the thread count).
 #pragma omp parallel if (entries.size() >= kParallelEntries)
   {
     list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
-    const int t = omp_get_thread_num();
-    const auto [h0, h1] = half_block(half_start, t, omp_get_num_threads());
-    kernel(view, h0, h1, prune_masks_.data());
-    int kept = 0;
-    for (int e = half_start[h0]; e < half_start[h1]; ++e) kept += prune_masks_[e] != 0;
-    thread_kept[t + 1] = kept;
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+      kernel(view, h0, h1, prune_masks_.data());
+      int kept = 0;
+      for (int e = half_start[h0]; e < half_start[h1]; ++e) kept += prune_masks_[e] != 0;
+      chunk_kept[h0 / kHalfChunk + 1] = kept;
+    });
 #pragma omp barrier
 #pragma omp single
     {
-      std::partial_sum(thread_kept.begin(), thread_kept.end(), thread_kept.begin());
-      pruned_entries_.resize(thread_kept.back());
+      std::partial_sum(chunk_kept.begin(), chunk_kept.end(), chunk_kept.begin());
+      pruned_entries_.resize(chunk_kept.back());
     }
-    int out = thread_kept[t];
-    for (int h = h0; h < h1; ++h) {
-      long work = 0;
-      for (int e = half_start[h]; e < half_start[h + 1]; ++e)
-        if (prune_masks_[e] != 0) {
-          pruned_entries_[out++] = {entries[e].j_cluster, entries[e].shift, prune_masks_[e]};
-          work += entry_work(prune_masks_[e], lanes);
-        }
-      pruned_half_start_[h + 1] = out;
-      half_work_[h + 1] = work;
-    }
+    for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+      int out = chunk_kept[h0 / kHalfChunk];
+      for (int h = h0; h < h1; ++h) {
+        for (int e = half_start[h]; e < half_start[h + 1]; ++e)
+          if (prune_masks_[e] != 0) pruned_entries_[out++] = {entries[e].j_cluster, entries[e].shift, prune_masks_[e]};
+        pruned_half_start_[h + 1] = out;
+      }
+    });
   }
-  std::partial_sum(half_work_.begin(), half_work_.end(), half_work_.begin());
   pruned_at_ = q;
   ++prunes_;
   prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -247,13 +232,12 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   fixed_masks_.resize(entries().size());
   const PairView view = pair_view<double>();
   const MaskKernel kernel = simd::mask_kernel();
-  const auto& half_start = this->half_start();
   constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
 #pragma omp parallel if (entries().size() >= kParallelEntries)
   {
     list_.pack_positions(*q, slots_.x.data(), slots_.y.data(), slots_.z.data());
-    const auto [h0, h1] = half_block(half_start, omp_get_thread_num(), omp_get_num_threads());
-    kernel(view, h0, h1, fixed_masks_.data());
+    for_thread_chunks(list_.n_halves(), omp_get_thread_num(), omp_get_num_threads(),
+                      [&](int h0, int h1) { kernel(view, h0, h1, fixed_masks_.data()); });
   }
   pair_set_fixed_ = true;
 }
@@ -304,16 +288,6 @@ void NonbondedPairTerm::refresh_layout() {
     for (auto* v : {&mixed_slots_.x, &mixed_slots_.y, &mixed_slots_.z}) v->resize(n);
   }
   layout_build_ = list_.builds();
-  if (!pruning()) {  // a pruned list gets its work estimate when pruned
-    const auto& entries = list_.entries();
-    const auto& half_start = list_.half_start();
-    const int lanes = simd::lanes();
-    half_work_.assign(list_.n_halves() + 1, 0);
-    for (int h = 0; h < list_.n_halves(); ++h) {
-      half_work_[h + 1] = half_work_[h];
-      for (int e = half_start[h]; e < half_start[h + 1]; ++e) half_work_[h + 1] += entry_work(entries[e].mask, lanes);
-    }
-  }
 }
 
 // Runs pack() (worksharing loops that fill the slot arrays), then kernel(thread, n_threads, fx, fy,
@@ -389,8 +363,9 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
       hessian_requested_ && !pair_set_fixed_ && !mixed_ ? record_inside_masks(q).data() : nullptr;
   run_parallel(slots.thread_buffers, [&] { list_.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
                [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
-                 const auto [h0, h1] = half_block(half_work_, t, nt);
-                 pair_kernel(view, masks, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
+                 for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+                   pair_kernel(view, masks, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
+                 });
                  for (int b = t; b < n_blocks; b += nt)
                    block_coulomb[b] = excluded_forces(view, excluded, cutoff2_, b * kExcludedBlock,
                                                       std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
@@ -428,8 +403,9 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
         list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
       },
       [&](int t, int nt, double* ox, double* oy, double* oz) {
-        const auto [h0, h1] = half_block(half_work_, t, nt);
-        pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);
+        for_thread_chunks(list_.n_halves(), t, nt, [&](int h0, int h1) {
+          pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);
+        });
         for (int b = t; b < n_blocks; b += nt)
           excluded_hessian(view, excluded, cutoff2_, ux_.data(), uy_.data(), uz_.data(), b * kExcludedBlock,
                            std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);

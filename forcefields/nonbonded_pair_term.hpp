@@ -12,8 +12,8 @@
 // search is redone only when an atom has moved (search skin − skin)/2 since it ran, so the pruned
 // range, hence every pair inside the cut-off, is always covered: exact, like a single list.
 //
-// Threads: each thread takes a contiguous block of i-half-clusters (balanced by list entries)
-// and accumulates into its own force buffer; the buffers are summed per atom in thread order.
+// Threads: each thread takes every nt-th chunk of i-half-clusters and accumulates into its own
+// force buffer; the buffers are summed per atom in thread order.
 // No atomics, no races. Energies are summed from per-half partials in a fixed order, so they do
 // not depend on the thread count at all; forces and HVPs differ by round-off only.
 #include <string>
@@ -123,7 +123,6 @@ class NonbondedPairTerm : public ForceTerm {
   std::vector<NeighborList::Entry> pruned_entries_;
   std::vector<int> pruned_half_start_;
   std::vector<std::uint32_t> prune_masks_;  // per searched entry
-  std::vector<long> half_work_;             // the kernels' estimated work, cumulative per i-half (threads split it)
   Coords pruned_at_;
   long prunes_ = 0;
   double prune_seconds_ = 0;
