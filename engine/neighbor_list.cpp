@@ -25,6 +25,8 @@ constexpr int kParallelSearchAtoms = 1024;
 constexpr int kHalf = NeighborList::kHalfSize;
 // Clusters whose bounding boxes are tested together in the pair search.
 constexpr int kBoxBatch = 8;
+// Where padding slots sit in the search (nm): no distance to them counts.
+constexpr double kFarAway = 1e6;
 
 // The half list keeps an image of a cluster paired with itself only for one of ±shift.
 bool is_positive_image(const Eigen::Vector3i& n) {
@@ -184,7 +186,8 @@ void NeighborList::bin_atoms(const Coords& q) {
     }
   }
   cluster_occupancy_.assign(n_clusters_, 0u);
-  for (auto& w : slot_wrapped_) w.assign(slot_atom_.size(), 0.0);
+  // Padding sits far away, so that it is never near anything (nor the nearest).
+  for (auto& w : slot_wrapped_) w.assign(slot_atom_.size(), kFarAway);
   for (int s = 0; s < n_slots(); ++s) {
     const int a = slot_atom_[s];
     if (a < 0) continue;
@@ -241,7 +244,8 @@ void NeighborList::compute_bounds() {
   }
 }
 
-void NeighborList::pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2]) const {
+void NeighborList::pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2],
+                              float nearest[2]) const {
   const double range2 = (cutoff_ + skin_) * (cutoff_ + skin_);
   const int i_first = i_cluster * kCluster;
   const int j_first = j_cluster * kCluster;
@@ -258,14 +262,22 @@ void NeighborList::pair_masks(int i_cluster, int j_cluster, int shift_index, std
     zj[j] = z[j_first + j] + shift[2];
   }
   std::uint64_t near = 0;  // bit (i * 8 + j) for the 8 x 8 atom pairs
+  double nearest2[2] = {INFINITY, INFINITY};
   for (int i = 0; i < kCluster; ++i) {
     unsigned row = 0;
+    double row_nearest2 = INFINITY;
     for (int j = 0; j < kCluster; ++j) {
       const double dx = x[i_first + i] - xj[j], dy = y[i_first + i] - yj[j], dz = z[i_first + i] - zj[j];
-      row |= static_cast<unsigned>(dx * dx + dy * dy + dz * dz < range2) << j;
+      const double r2 = dx * dx + dy * dy + dz * dz;
+      row |= static_cast<unsigned>(r2 < range2) << j;
+      row_nearest2 = std::min(row_nearest2, r2);
     }
     near |= static_cast<std::uint64_t>(row) << (i * kCluster);
+    nearest2[i / kHalf] = std::min(nearest2[i / kHalf], row_nearest2);
   }
+  // Rounded down to float: a pruning may then skip an entry for good only where it truly is far.
+  for (int hh = 0; hh < 2; ++hh)
+    nearest[hh] = std::nextafter(static_cast<float>(std::sqrt(nearest2[hh])), 0.0f);
   // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
   // its own image.
   constexpr std::uint32_t kRowsOf = 0x01010101u;  // one byte per i row
@@ -353,9 +365,10 @@ void NeighborList::search_pairs() {
                 // The half list keeps a cluster's own images for one of ±shift only.
                 if (b == a_cluster && si != zero_shift_ && !positive) continue;
                 std::uint32_t masks[2];
-                pair_masks(a_cluster, b, si, masks);
+                float nearest[2];
+                pair_masks(a_cluster, b, si, masks, nearest);
                 for (int hh = 0; hh < 2; ++hh)
-                  if (masks[hh] != 0) found[hh].push_back({b, si, masks[hh]});
+                  if (masks[hh] != 0) found[hh].push_back({b, si, masks[hh], nearest[hh]});
               }
             }
           }

@@ -36,6 +36,7 @@ class NeighborList {
     int shift;           // index into shift_vectors(); the j atoms are taken at x_j + shift
     std::uint32_t mask;  // bit (ii * kClusterSize + jj): i-half atom ii interacts with j atom jj, and their
                          // distance at the build was below cutoff + skin
+    float nearest;       // at the build, no two of its atoms were closer than this (nm, rounded down)
   };
   // An excluded atom pair (i < j in atom order) in slot indices, with the shift that gives its
   // minimum image; kept for interactions that act on excluded pairs (reaction-field correction).
@@ -94,7 +95,9 @@ class NeighborList {
   void search_pairs();
   void collect_excluded_pairs();
   // Entry masks of the two i-halves of i_cluster against j_cluster + shift.
-  void pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2]) const;
+  // Entry masks of the two i-halves of i_cluster against j_cluster + shift, and each half's
+  // nearest distance to it.
+  void pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2], float nearest[2]) const;
 
   Box box_;
   double cutoff_, skin_;

@@ -219,7 +219,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
   }
 }
 
-void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks) {
+void mask_halves(const PairView& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
   const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
   const unsigned lane_bits = (1u << lanes) - 1;
   for (int h = h0; h < h1; ++h) {
@@ -227,6 +227,10 @@ void mask_halves(const PairView& d, int h0, int h1, std::uint32_t* inside_masks)
     load_half(d, h, hi);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
+      if (entry.nearest >= skip_from) {
+        inside_masks[e] = 0;
+        continue;
+      }
       const Vec3& shift = d.shifts[entry.shift];
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += lanes) {

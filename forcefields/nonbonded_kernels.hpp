@@ -48,8 +48,9 @@ using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0
 using MixedForceKernel = void (*)(const PairViewOf<float>&, const std::uint32_t* masks, int h0, int h1, float* fx,
                                   float* fy, float* fz, double* half_lj, double* half_coulomb,
                                   std::uint32_t* inside_masks);
-// inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1).
-using MaskKernel = void (*)(const PairView&, int h0, int h1, std::uint32_t* inside_masks);
+// inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
+// 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm).
+using MaskKernel = void (*)(const PairView&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz); masks[e] selects the pairs of entry e (the
 // list's own masks, or the inside masks a force pass at the same positions recorded).
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,

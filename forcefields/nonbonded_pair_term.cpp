@@ -165,6 +165,9 @@ void NonbondedPairTerm::prune(const Coords& q) {
   view.half_start = half_start.data();
   const double range = list_.cutoff() + skin_;
   view.cutoff2 = range * range;
+  // Since the search no pair came closer by more than twice the largest displacement: an entry
+  // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
+  const double skip_from = range + 2 * max_displacement(q, list_.built_at());
   const MaskKernel kernel = simd::mask_kernel();
   const int n_halves = list_.n_halves();
   pruned_half_start_.resize(n_halves + 1);
@@ -178,7 +181,7 @@ void NonbondedPairTerm::prune(const Coords& q) {
     list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
-      kernel(view, h0, h1, prune_masks_.data());
+      kernel(view, h0, h1, skip_from, prune_masks_.data());
       int kept = 0;
       for (int e = half_start[h0]; e < half_start[h1]; ++e) kept += prune_masks_[e] != 0;
       chunk_kept[h0 / kHalfChunk + 1] = kept;
@@ -193,7 +196,10 @@ void NonbondedPairTerm::prune(const Coords& q) {
       int out = chunk_kept[h0 / kHalfChunk];
       for (int h = h0; h < h1; ++h) {
         for (int e = half_start[h]; e < half_start[h + 1]; ++e)
-          if (prune_masks_[e] != 0) pruned_entries_[out++] = {entries[e].j_cluster, entries[e].shift, prune_masks_[e]};
+          if (prune_masks_[e] != 0) {
+            pruned_entries_[out] = entries[e];
+            pruned_entries_[out++].mask = prune_masks_[e];
+          }
         pruned_half_start_[h + 1] = out;
       }
     });
@@ -236,7 +242,7 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   {
     list_.pack_positions(*q, slots_.x.data(), slots_.y.data(), slots_.z.data());
     for_thread_chunks(list_.n_halves(), omp_get_thread_num(), omp_get_num_threads(),
-                      [&](int h0, int h1) { kernel(view, h0, h1, fixed_masks_.data()); });
+                      [&](int h0, int h1) { kernel(view, h0, h1, INFINITY, fixed_masks_.data()); });
   }
   pair_set_fixed_ = true;
 }
