@@ -15,8 +15,9 @@ struct Box {
   // Minimum-image difference vector. Positions are never wrapped inside a step, so every
   // pair difference goes through here.
   Vec3 minimum_image(Vec3 d) const {
+    // Most vectors asked about (bonds) are short: the division only where an image can be nearer.
     for (int k = 0; k < 3; ++k)
-      if (length[k] > 0) d[k] -= length[k] * std::nearbyint(d[k] / length[k]);
+      if (length[k] > 0 && std::abs(d[k]) > 0.5 * length[k]) d[k] -= length[k] * std::nearbyint(d[k] / length[k]);
     return d;
   }
 };
