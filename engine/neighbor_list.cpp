@@ -82,10 +82,11 @@ double max_displacement(const Coords& a, const Coords& b) {
   return std::sqrt(max_d2);
 }
 
-bool NeighborList::update(const Coords& q, double allowed) {
-  if (builds_ > 0 && max_displacement(q, q_at_build_) <= allowed) return false;
+double NeighborList::update(const Coords& q, double allowed) {
+  const double moved = builds_ > 0 ? max_displacement(q, q_at_build_) : INFINITY;
+  if (moved <= allowed) return moved;
   build(q);
-  return true;
+  return 0;
 }
 
 void NeighborList::build(const Coords& q) {

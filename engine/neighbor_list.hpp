@@ -49,9 +49,10 @@ class NeighborList {
   NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions);
 
   // Rebuilds when an atom has moved more than `allowed` nm since the last build (or never was
-  // built); returns true if it rebuilt. skin/2 keeps every pair inside the cut-off listed; a
-  // pruned list (NonbondedPairTerm) allows less, so that its inner range stays covered.
-  bool update(const Coords& q, double allowed);
+  // built). skin/2 keeps every pair inside the cut-off listed; a pruned list (NonbondedPairTerm)
+  // allows less, so that its inner range stays covered. Returns the largest displacement since
+  // the build (0 after a rebuild).
+  double update(const Coords& q, double allowed);
   void build(const Coords& q);
   long builds() const { return builds_; }
   // Wall time spent in build(), s (the cost reports show it per step).

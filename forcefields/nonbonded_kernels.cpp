@@ -134,10 +134,9 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
 template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch>
 void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
                     int h0, int h1, double* ox, double* oy, double* oz) {
-  using Mask = SimdMask;
-  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  const int lanes = SimdDouble::lanes();
   const unsigned lane_bits = (1u << lanes) - 1;
-  const SimdDouble one = simd_broadcast(1.0), zero = simd_zero();
+  const SimdDouble one = SimdDouble::broadcast(1.0), zero = SimdDouble::zero();
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
@@ -168,7 +167,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           if (bits == 0) continue;
           const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
           const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
-          const Mask inside = mask_from_bits<double>(bits) & (r2 < d.cutoff2);
+          const SimdMask inside = mask_from_bits<double>(bits) & (r2 < d.cutoff2);
           const SimdDouble r2s = select(inside, r2, one);
           const SimdDouble rinv = simd_rsqrt(r2s);
           const SimdDouble rinv2 = rinv * rinv;
@@ -220,7 +219,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
 }
 
 void mask_halves(const PairView& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
-  const int lanes = static_cast<int>(hn::Lanes(SimdTag()));
+  const int lanes = SimdDouble::lanes();
   const unsigned lane_bits = (1u << lanes) - 1;
   for (int h = h0; h < h1; ++h) {
     HalfData<double> hi;

@@ -149,13 +149,13 @@ void NonbondedPairTerm::prepare(const Coords& q) {
     list_.update(q, 0.5 * skin_);
     refresh_layout();
   } else if (prunes_ == 0 || max_displacement(q, pruned_at_) > 0.5 * skin_) {
-    list_.update(q, 0.5 * (list_.skin() - skin_));
+    const double moved = list_.update(q, 0.5 * (list_.skin() - skin_));
     refresh_layout();
-    prune(q);
+    prune(q, moved);
   }
 }
 
-void NonbondedPairTerm::prune(const Coords& q) {
+void NonbondedPairTerm::prune(const Coords& q, double moved_since_search) {
   const auto start = std::chrono::steady_clock::now();
   const auto& entries = list_.entries();
   const auto& half_start = list_.half_start();
@@ -167,7 +167,7 @@ void NonbondedPairTerm::prune(const Coords& q) {
   view.cutoff2 = range * range;
   // Since the search no pair came closer by more than twice the largest displacement: an entry
   // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
-  const double skip_from = range + 2 * max_displacement(q, list_.built_at());
+  const double skip_from = range + 2 * moved_since_search;
   const MaskKernel kernel = simd::mask_kernel();
   const int n_halves = list_.n_halves();
   pruned_half_start_.resize(n_halves + 1);
@@ -261,7 +261,7 @@ void NonbondedPairTerm::restore(const Carried& in) {
   if (in.has("neighbor_list_pruned_at")) {
     const Coords pruned_at = in.coords("neighbor_list_pruned_at");
     if (pruned_at.cols() != n_atoms_) throw std::invalid_argument("NonbondedPairTerm::restore: wrong number of atoms");
-    prune(pruned_at);
+    prune(pruned_at, max_displacement(pruned_at, built_at));
   }
 }
 
@@ -398,7 +398,8 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
     if (!pair_set_fixed_) ++hessian_cache_hits_;
   } else {
     list_masks_.resize(entries().size());
-    for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = entries()[e].mask;
+    const auto& listed = entries();
+    for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = listed[e].mask;
     masks = list_masks_.data();
   }
   run_parallel(

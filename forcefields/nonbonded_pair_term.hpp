@@ -76,7 +76,8 @@ class NonbondedPairTerm : public ForceTerm {
   static bool same_positions(const Coords& a, const Coords& b);
   void refresh_layout();  // slot-ordered charges and types after a list rebuild
   bool pruning() const { return list_.skin() > skin_; }
-  void prune(const Coords& q);
+  // moved_since_search: the largest displacement from the search's positions to q.
+  void prune(const Coords& q, double moved_since_search);
   // The list the kernels run over: the pruned one, or the searched one without pruning.
   const std::vector<NeighborList::Entry>& entries() const { return pruning() ? pruned_entries_ : list_.entries(); }
   const std::vector<int>& half_start() const { return pruning() ? pruned_half_start_ : list_.half_start(); }

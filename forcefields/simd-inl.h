@@ -56,8 +56,6 @@ using SimdFloat = SimdVec<float>;
 using SimdTag = SimdDouble::Tag;
 using SimdMask = SimdMaskOf<double>;
 
-HWY_INLINE SimdDouble simd_broadcast(double x) { return SimdDouble::broadcast(x); }
-HWY_INLINE SimdDouble simd_zero() { return SimdDouble::zero(); }
 template <class Real>
 HWY_INLINE SimdVec<Real> simd_load(const Real* p) {
   return {hn::LoadU(typename SimdVec<Real>::Tag(), p)};
