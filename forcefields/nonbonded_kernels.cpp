@@ -24,6 +24,9 @@ template <class Real>
 struct HalfData {
   Real x[kH], y[kH], z[kH], q[kH];
   const Real *c6[kH], *c12[kH];
+  // Rows whose atom has no LJ with any type (water's hydrogens: 2 of 3 rows) skip the LJ terms:
+  // they would add exact zeros.
+  bool lj[kH];
 };
 
 template <class Real>
@@ -36,6 +39,7 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfData<Real>& hi) 
     hi.q[ii] = static_cast<Real>(d.rf.prefactor * d.charge[ib + ii]);
     hi.c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
     hi.c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
+    hi.lj[ii] = d.type_has_lj[d.type[ib + ii]] != 0;
   }
 }
 
@@ -83,8 +87,10 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
           V v, g;
           if constexpr (kSharedSwitch) {
             const V r = r2s * rinv;
-            lj_energy_force<VdwModifier::none>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r,
-                                               v, g);
+            v = g = zero;
+            if (hi.lj[ii])
+              lj_energy_force<VdwModifier::none>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r,
+                                                 v, g);
             V vc, gc, s, ds;
             rf_energy_force<CoulombModifier::none>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
             switch_value_slope(d.lj.sw, r, s, ds);
@@ -94,8 +100,11 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
             e_coulomb += keep(inside, vc);
             g += gc;
           } else {
-            lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
-            e_lj += keep(inside, v);
+            g = zero;
+            if (hi.lj[ii]) {
+              lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
+              e_lj += keep(inside, v);
+            }
             if constexpr (kCoulomb) {
               V vc, gc;
               rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
@@ -174,18 +183,24 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           SimdDouble a, b;
           if constexpr (kSharedSwitch) {
             // The coefficients of U = U_LJ + U_Coulomb unswitched, then of U·S.
-            const SimdDouble r = r2s * rinv, c6 = simd_load(hi.c6[ii] + jb), c12 = simd_load(hi.c12[ii] + jb),
-                             qq = hi.q[ii] * simd_load(d.charge + jb);
-            SimdDouble u, u_coulomb, ac, bc, unused;
-            lj_hessian<VdwModifier::none>(d.lj, c6, c12, rinv2, r, a, b);
-            rf_hessian<CoulombModifier::none>(d.rf, qq, rinv, r2s, ac, bc);
-            lj_energy_force<VdwModifier::none>(d.lj, c6, c12, rinv2, r, u, unused);
-            rf_energy_force<CoulombModifier::none>(d.rf, qq, rinv, r2s, u_coulomb, unused);
-            a += ac;
-            b += bc;
-            apply_switch_hessian(d.lj.sw, u + u_coulomb, r, rinv, a, b);
+            const SimdDouble r = r2s * rinv, qq = hi.q[ii] * simd_load(d.charge + jb);
+            SimdDouble u, unused;
+            rf_hessian<CoulombModifier::none>(d.rf, qq, rinv, r2s, a, b);
+            rf_energy_force<CoulombModifier::none>(d.rf, qq, rinv, r2s, u, unused);
+            if (hi.lj[ii]) {
+              const SimdDouble c6 = simd_load(hi.c6[ii] + jb), c12 = simd_load(hi.c12[ii] + jb);
+              SimdDouble a_lj, b_lj, u_lj;
+              lj_hessian<VdwModifier::none>(d.lj, c6, c12, rinv2, r, a_lj, b_lj);
+              lj_energy_force<VdwModifier::none>(d.lj, c6, c12, rinv2, r, u_lj, unused);
+              a += a_lj;
+              b += b_lj;
+              u += u_lj;
+            }
+            apply_switch_hessian(d.lj.sw, u, r, rinv, a, b);
           } else {
-            lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
+            a = b = zero;
+            if (hi.lj[ii])
+              lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
             if constexpr (kCoulomb) {
               SimdDouble ac, bc;
               rf_hessian<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, ac, bc);

@@ -24,6 +24,7 @@ struct PairViewOf {
   const Real* charge;
   const int* type;
   const Real *lj_c6, *lj_c12;
+  const unsigned char* type_has_lj;  // per type: 1 if its c6 or c12 with some type is not zero
   std::size_t n_slots;
   const NeighborList::Entry* entries;
   const int* half_start;

@@ -133,6 +133,10 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       c6_[a * n_types_ + b] = system.c6(a, b);
       c12_[a * n_types_ + b] = system.c12(a, b);
     }
+  type_has_lj_.assign(n_types_, 0);
+  for (int a = 0; a < n_types_; ++a)
+    for (int b = 0; b < n_types_; ++b)
+      if (system.c6(a, b) != 0 || system.c12(a, b) != 0) type_has_lj_[a] = 1;
   double sum_q2 = 0;  // a plain loop: Eigen's AVX-512 reduction trips a GCC 12 false-positive warning
   for (double qi : charge_) sum_q2 += qi * qi;
   if (rf_.kind == CoulombKind::reaction_field) self_energy_ = rf_self_energy(rf_, sum_q2);
@@ -221,6 +225,7 @@ PairViewOf<Real> NonbondedPairTerm::pair_view() const {
           slot_type_.data(),
           a.c6.data(),
           a.c12.data(),
+          type_has_lj_.data(),
           static_cast<std::size_t>(list_.n_slots()),
           entries().data(),
           half_start().data(),

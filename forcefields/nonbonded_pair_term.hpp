@@ -116,6 +116,7 @@ class NonbondedPairTerm : public ForceTerm {
   double self_energy_ = 0;
   int n_types_;
   std::vector<double> c6_, c12_;  // [ti * n_types + tj]
+  std::vector<unsigned char> type_has_lj_;  // per type: some c6 or c12 of its row is not zero
   Eigen::VectorXd charge_;
   std::vector<int> type_;
 

@@ -256,6 +256,39 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
   EXPECT_THROW(simd::use_target("NO-SUCH-TARGET"), InputError);
 }
 
+// Rows whose atom type has no LJ with any type skip the LJ terms in every kernel. The skip must
+// follow the whole row of the type table: hydrogens without any LJ (SPC/E), and hydrogens whose
+// only LJ is with oxygen, each against the scalar reference on every target.
+TEST(PairKernels, AtomTypesWithoutLennardJonesOnEveryTarget) {
+  auto [system, q] = testing::water_like_system(300, Vec3(2.5, 2.4, 2.6), 37);
+  const Eigen::MatrixXd c6 = system.c6, c12 = system.c12;
+  for (const bool hydrogen_with_oxygen : {false, true}) {
+    system.c6 = c6, system.c12 = c12;
+    system.c6(1, 1) = system.c12(1, 1) = 0;
+    if (!hydrogen_with_oxygen) system.c6(0, 1) = system.c6(1, 0) = system.c12(0, 1) = system.c12(1, 0) = 0;
+    const std::string table = hydrogen_with_oxygen ? "H LJ with O only" : "H without LJ";
+    for (const std::string& target : simd::available_targets()) {
+      simd::use_target(target);
+      for (const char* modifier : {"potential-shift", "potential-switch"})
+        for (const bool shared_switch : {false, true}) {
+          auto config = testing::pair_config(modifier, "reaction-field", 0.0);
+          if (shared_switch) {
+            if (std::string(modifier) != "potential-switch") continue;
+            config.coulomb_modifier = "potential-switch";
+            config.coulomb_switch = config.vdw_switch;
+          }
+          const std::string what = target + ", " + table + ", " + modifier + (shared_switch ? ", shared switch" : "");
+          NonbondedPairTerm term(system, config);
+          expect_matches_brute_force(term, system, q, what);
+          config.precision = "mixed";
+          NonbondedPairTerm mixed_term(system, config);
+          expect_mixed_matches_brute_force(mixed_term, system, q, "mixed, " + what);
+        }
+    }
+  }
+  simd::use_target("");
+}
+
 // Pairs that were just inside cut-off + skin at the build are pulled together by almost skin/2
 // per atom, so they end up inside the cut-off without a rebuild: they must still be counted.
 TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheBuffer) {
