@@ -1,5 +1,7 @@
 #include "engine/force_field.hpp"
 
+#include <limits>
+
 namespace vimd {
 
 void ForceField::add(std::unique_ptr<ForceTerm> term) {
@@ -9,15 +11,19 @@ void ForceField::add(std::unique_ptr<ForceTerm> term) {
   terms_.push_back(std::move(term));
 }
 
-void ForceField::compute(const Coords& q, Forces& out) {
+void ForceField::compute(const Coords& q, Forces& out) { evaluate(q, out, true); }
+
+void ForceField::compute_forces(const Coords& q, Forces& out) { evaluate(q, out, false); }
+
+void ForceField::evaluate(const Coords& q, Forces& out, bool energies) {
   out.f.setZero(3, q.cols());
-  out.terms.assign(names_.size(), 0.0);
+  out.terms.assign(names_.size(), energies ? 0.0 : std::numeric_limits<double>::quiet_NaN());
   std::size_t offset = 0;
   for (std::size_t k = 0; k < terms_.size(); ++k) {
     auto& t = terms_[k];
     const std::size_t n = name_counts_[k];
     t->prepare(q);
-    t->add_forces(q, out.f, std::span<double>(out.terms).subspan(offset, n));
+    t->add_forces(q, out.f, energies ? std::span<double>(out.terms).subspan(offset, n) : std::span<double>());
     offset += n;
   }
   out.potential = 0;

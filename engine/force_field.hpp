@@ -22,7 +22,8 @@ class ForceTerm {
   virtual ~ForceTerm() = default;
   // Names of the energies this term reports, e.g. {"lj", "coulomb"} for the nonbonded pair term.
   virtual std::vector<std::string> energy_names() const = 0;
-  // Adds −∇V to f and the energies to energies[0..energy_names().size()).
+  // Adds −∇V to f and the energies to energies[0..energy_names().size()); an empty `energies`
+  // asks for the forces only (a term may then skip the energy work).
   virtual void add_forces(const Coords& q, Coords& f, std::span<double> energies) = 0;
   // Adds ∇²V(q) u to out.
   virtual void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) = 0;
@@ -50,6 +51,9 @@ class ForceField {
   const std::vector<std::string>& energy_names() const { return names_; }
 
   void compute(const Coords& q, Forces& out);
+  // The forces alone (the pair kernels skip the energy sums): out.potential and out.terms are NaN,
+  // so that a use of energies nobody computed shows.
+  void compute_forces(const Coords& q, Forces& out);
   // out = ∇²V(q) u
   void hessian_vector(const Coords& q, const Coords& u, Coords& out);
   // Freezes the interacting pair set at q (nullptr releases it) of every term whose force jumps at
@@ -74,6 +78,8 @@ class ForceField {
   const std::vector<std::unique_ptr<ForceTerm>>& terms() const { return terms_; }
 
  private:
+  void evaluate(const Coords& q, Forces& out, bool energies);
+
   std::vector<std::unique_ptr<ForceTerm>> terms_;
   std::vector<std::string> names_;
   std::vector<std::size_t> name_counts_;  // per term

@@ -16,6 +16,10 @@ struct Problem {
   ForceField& force_field;
   const Constraints& constraints;
   Eigen::VectorXd inverse_mass;  // per atom, 1/amu
+  // Whether the state a step() ends in must carry its energies (State::potential, energy_terms):
+  // the run loop clears it for steps nobody samples, so that the force field can skip the energy
+  // work there (the state's energies are then NaN). Forces are always computed.
+  bool energies_due = true;
 };
 
 struct StepReport {

@@ -79,7 +79,7 @@ void Simulation::check_sane(const State& state) const {
     if (!worst) worst = what;
     if (++count <= 5) atoms += std::string(atoms.empty() ? "" : ", ") + atom_label(system, i) + " " + what;
   }
-  if (count == 0 && std::isfinite(state.potential)) return;
+  if (count == 0 && (std::isfinite(state.potential) || !problem_.energies_due)) return;
   std::string message = state.step == start_step_ ? "the start state is unusable: "
                                                   : "the system blew up at step " + std::to_string(state.step) + ": ";
   if (count == 0)
@@ -194,6 +194,18 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
     t.steps = state.step - info.first_step;
     return t;
   };
+  // Energies only for the states that are sampled (GROMACS's nstcalcenergy): the force field skips
+  // the energy work on the other steps.
+  auto energies_due_at = [&](long step) {
+    if (step == info.last_step) return true;
+    for (auto& o : observers_)
+      if (o->needs_sample() && o->every() > 0 && (step - info.first_step) % o->every() == 0) return true;
+    return false;
+  };
+  struct EnergiesDueReset {  // the Problem outlives the run: computing energies is its default
+    Problem& problem;
+    ~EnergiesDueReset() { problem.energies_due = true; }
+  } reset{problem_};
   if (info.start_step == info.first_step) notify(true);
 
   auto last_checkpoint = std::chrono::steady_clock::now();
@@ -201,6 +213,7 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
   try {
     while (state.step < info.last_step) {
       last_good.q = state.q, last_good.v = state.v, last_good.step = state.step, last_good.time = state.time;
+      problem_.energies_due = energies_due_at(state.step + 1);
       report = integrator_.step(problem_, state);
       ++state.step;
       state.time = start_time_ + (state.step - info.first_step) * dt_;

@@ -49,7 +49,7 @@ HarmonicAngleTerm::HarmonicAngleTerm(std::vector<Angle> angles, const Box& box)
     : angles_(std::move(angles)), box_(box) {}
 
 void HarmonicAngleTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
-  energies[0] += loop_.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
+  const double energy = loop_.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
     const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));
     const Vec3 vb = box_.minimum_image(q.col(t.k) - q.col(t.j));
@@ -63,6 +63,7 @@ void HarmonicAngleTerm::add_forces(const Coords& q, Coords& f, std::span<double>
     }
     return energy;
   });
+  if (!energies.empty()) energies[0] += energy;
 }
 
 void HarmonicAngleTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {

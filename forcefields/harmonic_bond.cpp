@@ -7,7 +7,7 @@ namespace vimd {
 HarmonicBondTerm::HarmonicBondTerm(std::vector<Bond> bonds, const Box& box) : bonds_(std::move(bonds)), box_(box) {}
 
 void HarmonicBondTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
-  energies[0] += loop_.run(static_cast<int>(bonds_.size()), f, [&](int n, Coords& out) {
+  const double energy = loop_.run(static_cast<int>(bonds_.size()), f, [&](int n, Coords& out) {
     const Bond& b = bonds_[n];
     const Vec3 d = box_.minimum_image(q.col(b.i) - q.col(b.j));
     const double r = d.norm();
@@ -17,6 +17,7 @@ void HarmonicBondTerm::add_forces(const Coords& q, Coords& f, std::span<double> 
     out.col(b.j) -= force;
     return 0.5 * b.k * stretch * stretch;
   });
+  if (!energies.empty()) energies[0] += energy;
 }
 
 void HarmonicBondTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {

@@ -45,8 +45,9 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfData<Real>& hi) 
 
 // kSharedSwitch: LJ and Coulomb are switched by the same S (same r_switch and smoothness); the
 // switch is then applied once, to their sum, instead of once for each. Real: the precision of the
-// pair arithmetic and of the force sums (float: the mixed-precision kernel).
-template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real>
+// pair arithmetic and of the force sums (float: the mixed-precision kernel). kEnergies: also the
+// energies (without them, half_lj and half_coulomb are not touched).
+template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real, bool kEnergies>
 void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0, int h1, Real* fx, Real* fy, Real* fz,
                   double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
@@ -56,7 +57,7 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
   const V one = V::broadcast(1.0), zero = V::zero();
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
-    half_lj[h] = half_coulomb[h] = 0;
+    if constexpr (kEnergies) half_lj[h] = half_coulomb[h] = 0;
     if (e0 == e1) continue;
     HalfData<Real> hi;
     load_half(d, h, hi);
@@ -96,19 +97,21 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
             switch_value_slope(d.lj.sw, r, s, ds);
             apply_switch_factors(s, ds, rinv, v, g);
             apply_switch_factors(s, ds, rinv, vc, gc);
-            e_lj += keep(inside, v);
-            e_coulomb += keep(inside, vc);
+            if constexpr (kEnergies) {
+              e_lj += keep(inside, v);
+              e_coulomb += keep(inside, vc);
+            }
             g += gc;
           } else {
             g = zero;
             if (hi.lj[ii]) {
               lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
-              e_lj += keep(inside, v);
+              if constexpr (kEnergies) e_lj += keep(inside, v);
             }
             if constexpr (kCoulomb) {
               V vc, gc;
               rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
-              e_coulomb += keep(inside, vc);
+              if constexpr (kEnergies) e_coulomb += keep(inside, vc);
               g += gc;
             }
           }
@@ -133,8 +136,10 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
       fy[ib + ii] += simd_sum(fyi[ii]);
       fz[ib + ii] += simd_sum(fzi[ii]);
     }
-    half_lj[h] = simd_sum(e_lj);
-    half_coulomb[h] = simd_sum(e_coulomb);
+    if constexpr (kEnergies) {
+      half_lj[h] = simd_sum(e_lj);
+      half_coulomb[h] = simd_sum(e_coulomb);
+    }
   }
 }
 
@@ -268,28 +273,36 @@ template <class Real>
 using ForceKernelOf = void (*)(const PairViewOf<Real>&, const std::uint32_t*, int, int, Real*, Real*, Real*, double*,
                                double*, std::uint32_t*);
 
-template <bool kCoulomb, CoulombModifier C, class Real>
+template <bool kCoulomb, CoulombModifier C, class Real, bool kEnergies>
 ForceKernelOf<Real> force_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return force_halves<VdwModifier::none, kCoulomb, C, false, Real>;
+      return force_halves<VdwModifier::none, kCoulomb, C, false, Real, kEnergies>;
     case VdwModifier::potential_shift:
-      return force_halves<VdwModifier::potential_shift, kCoulomb, C, false, Real>;
+      return force_halves<VdwModifier::potential_shift, kCoulomb, C, false, Real, kEnergies>;
     case VdwModifier::force_switch:
-      return force_halves<VdwModifier::force_switch, kCoulomb, C, false, Real>;
+      return force_halves<VdwModifier::force_switch, kCoulomb, C, false, Real, kEnergies>;
     case VdwModifier::potential_switch:
-      return force_halves<VdwModifier::potential_switch, kCoulomb, C, false, Real>;
+      return force_halves<VdwModifier::potential_switch, kCoulomb, C, false, Real, kEnergies>;
   }
   return nullptr;
 }
 
-template <class Real>
+template <class Real, bool kEnergies>
 ForceKernelOf<Real> force_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
   if (shared_switch)
-    return force_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true, Real>;
-  if (!coulomb) return force_kernel_of<false, CoulombModifier::none, Real>(m);
-  return c == CoulombModifier::potential_switch ? force_kernel_of<true, CoulombModifier::potential_switch, Real>(m)
-                                                : force_kernel_of<true, CoulombModifier::none, Real>(m);
+    return force_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true, Real, kEnergies>;
+  if (!coulomb) return force_kernel_of<false, CoulombModifier::none, Real, kEnergies>(m);
+  return c == CoulombModifier::potential_switch
+             ? force_kernel_of<true, CoulombModifier::potential_switch, Real, kEnergies>(m)
+             : force_kernel_of<true, CoulombModifier::none, Real, kEnergies>(m);
+}
+
+template <class Real>
+ForceKernelOf<Real> force_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch,
+                                     bool energies) {
+  return energies ? force_kernel_for<Real, true>(m, coulomb, c, shared_switch)
+                  : force_kernel_for<Real, false>(m, coulomb, c, shared_switch);
 }
 
 template <bool kCoulomb, CoulombModifier C>
@@ -311,11 +324,12 @@ HessianKernel hessian_kernel_of(VdwModifier m) {
 
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
 // Without Coulomb the Coulomb modifier is irrelevant: one instantiation.
-ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  return force_kernel_for<double>(m, coulomb, c, shared_switch);
+ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch, bool energies) {
+  return force_kernel_for<double>(m, coulomb, c, shared_switch, energies);
 }
-MixedForceKernel MixedForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  return force_kernel_for<float>(m, coulomb, c, shared_switch);
+MixedForceKernel MixedForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch,
+                                     bool energies) {
+  return force_kernel_for<float>(m, coulomb, c, shared_switch, energies);
 }
 HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
   if (shared_switch)
@@ -357,13 +371,15 @@ Kernel checked(Kernel kernel) {
 }
 }  // namespace
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch) {
-  return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch,
+                         bool energies) {
+  return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
 }
 
 MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                    bool shared_switch) {
-  return checked(HWY_DYNAMIC_DISPATCH(MixedForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+                                    bool shared_switch, bool energies) {
+  return checked(
+      HWY_DYNAMIC_DISPATCH(MixedForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
 }
 
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,

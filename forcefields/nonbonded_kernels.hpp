@@ -37,7 +37,8 @@ using PairView = PairViewOf<double>;
 
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
-// on the thread count. masks[e] selects the pairs of entry e (null: the list's own masks); a pair
+// on the thread count (a kernel without energies leaves them untouched). masks[e] selects the
+// pairs of entry e (null: the list's own masks); a pair
 // counts if it is selected and inside the view's cut-off. If inside_masks is not null,
 // inside_masks[e] receives the bits of entry e's pairs that counted.
 using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy,
@@ -60,10 +61,11 @@ using HessianKernel = void (*)(const PairView&, const double* ux, const double* 
 namespace simd {
 
 // shared_switch: LJ and Coulomb both potential-switch with the same r_switch and smoothness (then
-// the switch is evaluated once per pair, for their sum).
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
+// the switch is evaluated once per pair, for their sum). energies: false for forces only.
+ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch,
+                         bool energies);
 MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                    bool shared_switch);
+                                    bool shared_switch, bool energies);
 MaskKernel mask_kernel();
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
 

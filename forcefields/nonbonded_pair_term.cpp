@@ -347,12 +347,14 @@ constexpr int kExcludedBlock = 1024;
 
 void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
   prepare(q);
-  const bool coulomb = rf_.kind == CoulombKind::reaction_field;
+  const bool coulomb = rf_.kind == CoulombKind::reaction_field, with_energies = !energies.empty();
   if (mixed_)
-    add_pair_forces(mixed_slots_, simd::mixed_force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_), q, f,
+    add_pair_forces(mixed_slots_,
+                    simd::mixed_force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_, with_energies), q, f,
                     energies);
   else
-    add_pair_forces(slots_, simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_), q, f, energies);
+    add_pair_forces(slots_, simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_, with_energies), q, f,
+                    energies);
 }
 
 template <class Real, class Kernel>
@@ -381,6 +383,7 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
                                                       std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
                },
                f);
+  if (energies.empty()) return;
   double lj_sum = 0, coulomb_sum = self_energy_;
   for (int h = 0; h < n_halves; ++h) lj_sum += half_lj[h];
   for (int h = 0; h < n_halves; ++h) coulomb_sum += half_coulomb[h];

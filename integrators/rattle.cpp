@@ -32,7 +32,7 @@ StepReport Rattle::step(Problem& problem, State& state) {
     // ~1e-13 relative, is far below the constraint tolerance.)
     state.v = (state.q - q_start_) / dt_;
   }
-  evaluate_forces(problem, state, forces_);
+  evaluate_forces(problem, state, forces_, problem.energies_due);
   kick(w, state.f, 0.5 * dt_, state.v);
   constraints.project_velocities(state.q, state.v, w);
   thermostat_step(problem, state);

@@ -56,7 +56,7 @@ StepReport Shake::step(Problem& problem, State& state) {
   std::swap(state.q, next_.q);
   std::swap(state.v, next_.v);
   next_.valid = false;
-  evaluate_forces(problem, state, forces_);
+  evaluate_forces(problem, state, forces_, problem.energies_due);
   StepReport report;
   report.iterations = next_.iterations;
   report.residual = next_.residual;

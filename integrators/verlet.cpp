@@ -14,8 +14,11 @@ void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords
   for (Eigen::Index i = 0; i < v.cols(); ++i) v.col(i) += (h * inverse_mass[i]) * f.col(i);
 }
 
-void evaluate_forces(Problem& problem, State& state, Forces& scratch) {
-  problem.force_field.compute(state.q, scratch);
+void evaluate_forces(Problem& problem, State& state, Forces& scratch, bool energies) {
+  if (energies)
+    problem.force_field.compute(state.q, scratch);
+  else
+    problem.force_field.compute_forces(state.q, scratch);
   std::swap(state.f, scratch.f);  // the old force array becomes next call's scratch
   state.potential = scratch.potential;
   state.energy_terms = scratch.terms;
@@ -69,7 +72,7 @@ void VelocityVerlet::init(Problem& problem, State& state) {
 StepReport VelocityVerlet::step(Problem& problem, State& state) {
   kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
   state.q += dt_ * state.v;
-  evaluate_forces(problem, state, forces_);
+  evaluate_forces(problem, state, forces_, problem.energies_due);
   kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
   thermostat_step(problem, state);
   return {};

@@ -10,9 +10,9 @@ namespace vimd {
 
 // v += h M⁻¹ f
 void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v);
-// state.f, state.potential, state.energy_terms ← the force field at state.q. `scratch` is the
-// caller's reusable buffer, so steady-state steps do not allocate.
-void evaluate_forces(Problem& problem, State& state, Forces& scratch);
+// state.f, state.potential, state.energy_terms ← the force field at state.q (the energies NaN
+// without `energies`). `scratch` is the caller's reusable buffer, so steady-state steps do not allocate.
+void evaluate_forces(Problem& problem, State& state, Forces& scratch, bool energies = true);
 // Checks that state and problem sizes agree; a state without velocities starts at rest.
 void check_start(const Problem& problem, State& state);
 // InputError for a time step, tolerance or iteration limit no integrator can use.

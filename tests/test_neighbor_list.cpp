@@ -128,6 +128,9 @@ void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const 
   EXPECT_NEAR(got.energies[1], ref.coulomb, 1e-12 * ref.coulomb_scale) << what;
   EXPECT_LT(relative_difference(got.f, ref.f), 1e-12) << what;
   EXPECT_LT(relative_difference(hu, ref.hu), 1e-12) << what;
+  Coords forces_only = Coords::Zero(3, q.cols());
+  term.add_forces(q, forces_only, {});
+  EXPECT_LT(relative_difference(forces_only, ref.f), 1e-12) << what << ", forces only";
 }
 
 // precision = "mixed": energies and forces from the single-precision kernel, to float accuracy
@@ -143,6 +146,9 @@ void expect_mixed_matches_brute_force(NonbondedPairTerm& term, const System& s, 
   const double force_error = relative_difference(got.f, ref.f);
   EXPECT_LT(force_error, 1e-5) << what;
   EXPECT_GT(force_error, 1e-12) << what << ": no single-precision rounding at all, is the mixed kernel running?";
+  Coords forces_only = Coords::Zero(3, q.cols());
+  term.add_forces(q, forces_only, {});
+  EXPECT_LT(relative_difference(forces_only, ref.f), 1e-5) << what << ", forces only";
   EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what;
 }
 

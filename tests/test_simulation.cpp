@@ -22,7 +22,7 @@ class Springs : public ForceTerm {
   std::vector<std::string> energy_names() const override { return {"springs"}; }
   void add_forces(const Coords& q, Coords& f, std::span<double> e) override {
     f -= k_ * q;
-    e[0] += 0.5 * k_ * q.squaredNorm();
+    if (!e.empty()) e[0] += 0.5 * k_ * q.squaredNorm();
   }
   void add_hessian_vector(const Coords&, const Coords& u, Coords& out) override { out += k_ * u; }
 
@@ -140,6 +140,36 @@ TEST(Simulation, WritesEnergySeriesWithTheDocumentedColumns) {
   }
   EXPECT_LT((e_max - e_min) / e_max, 1e-2);
   std::fclose(sink);
+}
+
+// The loop asks for energies exactly where a sampling observer is due (and at the last step), and
+// leaves the Problem asking for them after the run.
+TEST(Simulation, EnergiesAreDueOnlyAtSampledSteps) {
+  class DueRecorder : public Observer {
+   public:
+    explicit DueRecorder(std::vector<long>& due) : due_(due) {}
+    long every() const override { return 1; }
+    bool needs_sample() const override { return false; }
+    void observe(const RunInfo& info, const State& state, const Sample&) override {
+      if (state.step > info.first_step && info.problem.energies_due) due_.push_back(state.step);
+    }
+
+   private:
+    std::vector<long>& due_;
+  };
+  Fixture fx;
+  Problem problem = fx.problem();
+  TestVerlet integrator(0.01);
+  const fs::path dir = fs::temp_directory_path() / "vimd_test_simulation_due";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::vector<long> due;
+  Simulation sim(problem, integrator, 0.01);
+  sim.add_observer(std::make_unique<EnergyWriter>(dir, 4));
+  sim.add_observer(std::make_unique<DueRecorder>(due));
+  sim.run(fx.state, 14);
+  EXPECT_EQ(due, (std::vector<long>{4, 8, 12, 14}));
+  EXPECT_TRUE(problem.energies_due);
 }
 
 // A second run() of the same loop continues the state (what Python's sim.step(n) relies on):
