@@ -14,15 +14,18 @@ ConstrainedDynamics::ConstrainedDynamics(Problem& problem) : problem_(problem) {
   coefficients_.setZero(d);
 }
 
-void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q) {
+void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q,
+                                   bool segment_start) {
   const int n = n_atoms();
   const Eigen::VectorXd& w = inverse_mass();
   point.q = q;
   point.v = v;
   if (forces_at_q)
     point.forces = *forces_at_q;
-  else
+  else if (energies_ == Energies::everywhere || (segment_start && problem_.energies_due))
     problem_.force_field.compute(q, point.forces);
+  else
+    problem_.force_field.compute_forces(q, point.forces);
   const Coords& f = point.forces.f;
   point.a.resize(3, n);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)

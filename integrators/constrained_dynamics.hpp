@@ -11,20 +11,27 @@ namespace vimd {
 // Everything the reverse pass needs from one evaluation of the vector field.
 struct DynamicsPoint {
   Coords q, v;
-  Forces forces;                        // f, V and its terms at q
+  Forces forces;                        // f, V and its terms at q (V NaN where not computed)
   Coords a;                             // A(q, v)
   Eigen::VectorXd lambda;               // constraint multipliers
   Constraints::Factorization s_factor;  // S(q) = G M⁻¹ Gᵀ
-  double lagrangian = 0;                // L(q, v)
+  double lagrangian = 0;                // L(q, v) (NaN without V)
 };
 
 class ConstrainedDynamics {
  public:
   explicit ConstrainedDynamics(Problem& problem);
 
-  // Evaluates the field at (q, v). `forces_at_q`, when given, must be the forces at exactly this q
-  // and saves the force evaluation.
-  void evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q = nullptr);
+  // Which evaluations compute the potential energy (and so the Lagrangian): all (the default: a
+  // segment's action needs them), or only a segment's start when the problem's energies are due
+  // (a variational step: the stages need forces alone, and the state it writes is a segment start).
+  enum class Energies { everywhere, at_due_starts };
+  void set_energies(Energies energies) { energies_ = energies; }
+
+  // Evaluates the field at (q, v); `segment_start`: (q, v) starts a segment. `forces_at_q`, when
+  // given, must be the forces at exactly this q and saves the force evaluation.
+  void evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q = nullptr,
+                bool segment_start = true);
 
   // q_bar += ā·∂A/∂q and v_bar += ā·∂A/∂v at `point`: with u = M⁻¹ā, z = S⁻¹Gu, ũ = u − M⁻¹Gᵀz,
   //   ā·∂A/∂q = −∇²V ũ + Σ_a (λ_a H_a ũ − z_a H_a A),   ā·∂A/∂v = −2 Σ_a z_a H_a v.
@@ -41,6 +48,7 @@ class ConstrainedDynamics {
 
  private:
   Problem& problem_;
+  Energies energies_ = Energies::everywhere;
   // Scratch, sized once, so evaluations do not allocate.
   Coords u_tangent_, hessian_u_;
   Eigen::VectorXd rhs_, z_, coefficients_;

@@ -36,7 +36,7 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
       stage_q_.col(i) = q.col(i) + tau * dq;
       stage_v_.col(i) = v.col(i) + tau * dv;
     }
-    dynamics.evaluate(stage_q_, stage_v_, seg.stages[k]);
+    dynamics.evaluate(stage_q_, stage_v_, seg.stages[k], nullptr, /*segment_start=*/false);
   }
   seg.q.resize(3, n);
   seg.v.resize(3, n);

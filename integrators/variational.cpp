@@ -100,6 +100,8 @@ struct VariationalIntegrator::Work {
         euclid_plus(p.constraints, Eigen::VectorXd::Ones(p.inverse_mass.size())),
         euclid_minus(p.constraints, Eigen::VectorXd::Ones(p.inverse_mass.size())),
         mass_q(p.constraints, p.inverse_mass) {
+    // The solve needs forces alone; the state (a segment start) gets its energies when they are due.
+    dynamics.set_energies(ConstrainedDynamics::Energies::at_due_starts);
     const int n = static_cast<int>(p.inverse_mass.size());
     for (Coords* c : {&q, &v, &p_plus, &qbar, &pbar, &p_offset, &rho_q, &rho_v, &minus_q, &minus_v, &p_hat, &dq, &dv,
                       &dp, &trial, &v_trial, &start_direction, &q_standard, &v_standard, &q_offset, &v_offset})
