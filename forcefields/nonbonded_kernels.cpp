@@ -238,11 +238,14 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
   }
 }
 
-void mask_halves(const PairView& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
-  const int lanes = SimdDouble::lanes();
+template <class Real>
+void mask_halves(const PairViewOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
+  using V = SimdVec<Real>;
+  const int lanes = V::lanes();
   const unsigned lane_bits = (1u << lanes) - 1;
+  const Real range2 = static_cast<Real>(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
-    HalfData<double> hi;
+    HalfData<Real> hi;
     load_half(d, h, hi);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
@@ -254,13 +257,13 @@ void mask_halves(const PairView& d, int h0, int h1, double skip_from, std::uint3
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += lanes) {
         const int jb = entry.j_cluster * kC + js;
-        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
-                         zj = simd_load(d.z + jb) + shift[2];
+        const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+                zj = simd_load(d.z + jb) + shift[2];
         for (int ii = 0; ii < kH; ++ii) {
           const unsigned bits = (entry.mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
-          const SimdMask inside = mask_from_bits<double>(bits) & (dx * dx + dy * dy + dz * dz < d.cutoff2);
+          const V dx = V::broadcast(hi.x[ii]) - xj, dy = V::broadcast(hi.y[ii]) - yj, dz = V::broadcast(hi.z[ii]) - zj;
+          const SimdMaskOf<Real> inside = mask_from_bits<Real>(bits) & (dx * dx + dy * dy + dz * dz < range2);
           inside_bits |= bits_from_mask(inside) << (ii * kC + js);
         }
       }
@@ -338,7 +341,8 @@ HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, b
   return c == CoulombModifier::potential_switch ? hessian_kernel_of<true, CoulombModifier::potential_switch>(m)
                                                 : hessian_kernel_of<true, CoulombModifier::none>(m);
 }
-MaskKernel MaskKernelFor() { return mask_halves; }
+MaskKernel MaskKernelFor() { return mask_halves<double>; }
+MixedMaskKernel MixedMaskKernelFor() { return mask_halves<float>; }
 std::int64_t Target() { return HWY_TARGET; }
 int Lanes() { return SimdDouble::lanes(); }
 
@@ -357,6 +361,7 @@ HWY_EXPORT(ForceKernelFor);
 HWY_EXPORT(MixedForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
 HWY_EXPORT(MaskKernelFor);
+HWY_EXPORT(MixedMaskKernelFor);
 HWY_EXPORT(Target);
 HWY_EXPORT(Lanes);
 
@@ -388,6 +393,7 @@ HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
+MixedMaskKernel mixed_mask_kernel() { return HWY_DYNAMIC_DISPATCH(MixedMaskKernelFor)(); }
 
 std::string target_name() { return hwy::TargetName(HWY_DYNAMIC_DISPATCH(Target)()); }
 int lanes() { return HWY_DYNAMIC_DISPATCH(Lanes)(); }

@@ -53,6 +53,10 @@ using MixedForceKernel = void (*)(const PairViewOf<float>&, const std::uint32_t*
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
 // 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm).
 using MaskKernel = void (*)(const PairView&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
+// The same on single-precision positions (twice the pairs per vector); its rounding is the
+// caller's to cover, with a cut-off a little beyond the range it needs.
+using MixedMaskKernel = void (*)(const PairViewOf<float>&, int h0, int h1, double skip_from,
+                                 std::uint32_t* inside_masks);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz); masks[e] selects the pairs of entry e (the
 // list's own masks, or the inside masks a force pass at the same positions recorded).
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
@@ -67,6 +71,7 @@ ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier cou
 MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
                                     bool shared_switch, bool energies);
 MaskKernel mask_kernel();
+MixedMaskKernel mixed_mask_kernel();
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.

@@ -17,6 +17,12 @@ namespace vimd {
 
 namespace {
 
+double max_abs_coordinate(const Coords& q) {
+  double m = 0;  // a plain loop: Eigen's AVX-512 reduction trips a GCC 12 false-positive warning
+  for (Eigen::Index k = 0; k < q.size(); ++k) m = std::max(m, std::abs(q.data()[k]));
+  return m;
+}
+
 // The scalar excluded-pair terms, from the build's static SIMD target.
 using HWY_NAMESPACE::rf_excluded_energy_force;
 using HWY_NAMESPACE::rf_excluded_hessian;
@@ -164,15 +170,25 @@ void NonbondedPairTerm::prune(const Coords& q, double moved_since_search) {
   const auto& entries = list_.entries();
   const auto& half_start = list_.half_start();
   prune_masks_.resize(entries.size());
-  PairView view = pair_view<double>();
-  view.entries = entries.data();
-  view.half_start = half_start.data();
   const double range = list_.cutoff() + skin_;
-  view.cutoff2 = range * range;
   // Since the search no pair came closer by more than twice the largest displacement: an entry
   // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
   const double skip_from = range + 2 * moved_since_search;
+  // Mixed precision prunes on single-precision positions, over a range widened by a bound on their
+  // rounding (coordinates and shifts below `magnitude`; a few roundings of each difference), so
+  // that every pair truly within the range is kept.
+  const double magnitude = max_abs_coordinate(q) + 2 * list_.box().length.maxCoeff() + range;
+  const double float_range = range + 16 * std::numeric_limits<float>::epsilon() * magnitude;
+  auto view_of = [&](auto view, double kept_range) {
+    view.entries = entries.data();
+    view.half_start = half_start.data();
+    view.cutoff2 = kept_range * kept_range;
+    return view;
+  };
+  const PairView view = view_of(pair_view<double>(), range);
+  const PairViewOf<float> float_view = view_of(pair_view<float>(), float_range);
   const MaskKernel kernel = simd::mask_kernel();
+  const MixedMaskKernel float_kernel = simd::mixed_mask_kernel();
   const int n_halves = list_.n_halves();
   pruned_half_start_.resize(n_halves + 1);
   pruned_half_start_[0] = 0;
@@ -182,10 +198,16 @@ void NonbondedPairTerm::prune(const Coords& q, double moved_since_search) {
   // copied into place in half order (the pruned list does not depend on the thread count).
 #pragma omp parallel if (entries.size() >= kParallelEntries)
   {
-    list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
+    if (mixed_)
+      list_.pack_positions(q, mixed_slots_.x.data(), mixed_slots_.y.data(), mixed_slots_.z.data());
+    else
+      list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
-      kernel(view, h0, h1, skip_from, prune_masks_.data());
+      if (mixed_)
+        float_kernel(float_view, h0, h1, skip_from, prune_masks_.data());
+      else
+        kernel(view, h0, h1, skip_from, prune_masks_.data());
       int kept = 0;
       for (int e = half_start[h0]; e < half_start[h1]; ++e) kept += prune_masks_[e] != 0;
       chunk_kept[h0 / kHalfChunk + 1] = kept;
@@ -233,6 +255,21 @@ PairViewOf<Real> NonbondedPairTerm::pair_view() const {
           cutoff2,
           lj_,
           rf_};
+}
+
+bool NonbondedPairTerm::lists_pair(int a, int b) const {
+  constexpr int kC = NeighborList::kClusterSize, kH = NeighborList::kHalfSize;
+  const auto& listed = entries();
+  const auto& start = half_start();
+  auto holds = [&](int i_slot, int j_slot) {
+    const int h = i_slot / kH;
+    const std::uint32_t bit = 1u << ((i_slot % kH) * kC + j_slot % kC);
+    for (int e = start[h]; e < start[h + 1]; ++e)
+      if (listed[e].j_cluster == j_slot / kC && (listed[e].mask & bit)) return true;
+    return false;
+  };
+  const int sa = list_.atom_slot()[a], sb = list_.atom_slot()[b];
+  return holds(sa, sb) || holds(sb, sa);
 }
 
 void NonbondedPairTerm::fix_pair_set(const Coords* q) {

@@ -48,6 +48,9 @@ class NonbondedPairTerm : public ForceTerm {
   // Buffers of the pruned and the searched list (equal: no pruning), nm.
   double skin() const { return skin_; }
   double search_skin() const { return list_.skin(); }
+  // Whether the pair list the kernels visit (the pruned list, if pruning) holds atoms a and b, in
+  // any image. A linear scan, for tests.
+  bool lists_pair(int a, int b) const;
   // Hessian–vector products that reused the cut-off masks of an earlier force evaluation.
   long hessian_cache_hits() const { return hessian_cache_hits_; }
 
