@@ -23,8 +23,6 @@ constexpr int kParallelAtoms = 4096;
 // The pair search does a few hundred distance tests per atom, so it pays to share from far fewer.
 constexpr int kParallelSearchAtoms = 1024;
 constexpr int kHalf = NeighborList::kHalfSize;
-// Clusters whose bounding boxes are tested together in the pair search.
-constexpr int kBoxBatch = 8;
 // Where padding slots sit in the search (nm): no distance to them counts.
 constexpr double kFarAway = 1e6;
 
@@ -245,37 +243,15 @@ void NeighborList::compute_bounds() {
   }
 }
 
-void NeighborList::pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2],
-                              float nearest[2]) const {
+void NeighborList::pair_masks(ClusterPairKernel kernel, int i_cluster, int j_cluster, int shift_index,
+                              std::uint32_t masks[2], float nearest[2]) const {
   const double range2 = (cutoff_ + skin_) * (cutoff_ + skin_);
-  const int i_first = i_cluster * kCluster;
-  const int j_first = j_cluster * kCluster;
   const Vec3& shift = shift_vectors_[shift_index];
-  const double* x = slot_wrapped_[0].data();
-  const double* y = slot_wrapped_[1].data();
-  const double* z = slot_wrapped_[2].data();
-  // Only pairs within cut-off + skin now can come inside the cut-off before the next build. Plain
-  // loops over the 8 j atoms: the compiler vectorises them for the build's baseline target.
-  double xj[kCluster], yj[kCluster], zj[kCluster];
-  for (int j = 0; j < kCluster; ++j) {
-    xj[j] = x[j_first + j] + shift[0];
-    yj[j] = y[j_first + j] + shift[1];
-    zj[j] = z[j_first + j] + shift[2];
-  }
-  std::uint64_t near = 0;  // bit (i * 8 + j) for the 8 x 8 atom pairs
-  double nearest2[2] = {INFINITY, INFINITY};
-  for (int i = 0; i < kCluster; ++i) {
-    unsigned row = 0;
-    double row_nearest2 = INFINITY;
-    for (int j = 0; j < kCluster; ++j) {
-      const double dx = x[i_first + i] - xj[j], dy = y[i_first + i] - yj[j], dz = z[i_first + i] - zj[j];
-      const double r2 = dx * dx + dy * dy + dz * dz;
-      row |= static_cast<unsigned>(r2 < range2) << j;
-      row_nearest2 = std::min(row_nearest2, r2);
-    }
-    near |= static_cast<std::uint64_t>(row) << (i * kCluster);
-    nearest2[i / kHalf] = std::min(nearest2[i / kHalf], row_nearest2);
-  }
+  // Only pairs within cut-off + skin now can come inside the cut-off before the next build.
+  double nearest2[2];
+  const std::uint64_t near =  // bit (i * 8 + j) for the 8 x 8 atom pairs
+      kernel(slot_wrapped_[0].data(), slot_wrapped_[1].data(), slot_wrapped_[2].data(), i_cluster * kCluster,
+             j_cluster * kCluster, shift.data(), range2, nearest2);
   // Rounded down to float: a pruning may then skip an entry for good only where it truly is far.
   for (int hh = 0; hh < 2; ++hh)
     nearest[hh] = std::nextafter(static_cast<float>(std::sqrt(nearest2[hh])), 0.0f);
@@ -309,6 +285,10 @@ void NeighborList::search_pairs() {
   std::vector<int> count(n_halves + 1, 0);
   std::vector<int> owner(n_halves), offset(n_halves);
   std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
+  const ClusterPairKernel kernel = simd::cluster_pair_kernel();
+  const BoxBatchKernel box_batch = simd::box_batch_kernel();
+  const double* const lo[3] = {cluster_lo_[0].data(), cluster_lo_[1].data(), cluster_lo_[2].data()};
+  const double* const hi[3] = {cluster_hi_[0].data(), cluster_hi_[1].data(), cluster_hi_[2].data()};
 #pragma omp parallel if (n_atoms_ >= kParallelSearchAtoms)
   {
     const int t = omp_get_thread_num();
@@ -349,17 +329,7 @@ void NeighborList::search_pairs() {
             if (column_end <= a_cluster) continue;
             // Bounding-box distances of kBoxBatch clusters of the column at once.
             for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kBoxBatch) {
-              unsigned candidates = 0;
-              for (int c = 0; c < kBoxBatch; ++c) {
-                double d2 = 0;
-                for (int k = 0; k < 3; ++k) {
-                  const double above = (cluster_lo_[k][b0 + c] + shift[k]) - ba.hi[k];
-                  const double below = ba.lo[k] - (cluster_hi_[k][b0 + c] + shift[k]);
-                  const double gap = std::max(std::max(above, below), 0.0);
-                  d2 += gap * gap;
-                }
-                candidates |= static_cast<unsigned>(d2 < range2) << c;
-              }
+              unsigned candidates = box_batch(lo, hi, b0, ba.lo.data(), ba.hi.data(), shift.data(), range2);
               if (column_end - b0 < kBoxBatch) candidates &= (1u << (column_end - b0)) - 1;
               for (; candidates; candidates &= candidates - 1) {
                 const int b = b0 + __builtin_ctz(candidates);
@@ -367,7 +337,7 @@ void NeighborList::search_pairs() {
                 if (b == a_cluster && si != zero_shift_ && !positive) continue;
                 std::uint32_t masks[2];
                 float nearest[2];
-                pair_masks(a_cluster, b, si, masks, nearest);
+                pair_masks(kernel, a_cluster, b, si, masks, nearest);
                 for (int hh = 0; hh < 2; ++hh)
                   if (masks[hh] != 0) found[hh].push_back({b, si, masks[hh], nearest[hh]});
               }

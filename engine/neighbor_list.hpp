@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/box.hpp"
+#include "engine/cluster_pair_kernels.hpp"
 #include "engine/types.hpp"
 
 namespace vimd {
@@ -95,10 +96,10 @@ class NeighborList {
   void compute_bounds();
   void search_pairs();
   void collect_excluded_pairs();
-  // Entry masks of the two i-halves of i_cluster against j_cluster + shift.
   // Entry masks of the two i-halves of i_cluster against j_cluster + shift, and each half's
   // nearest distance to it.
-  void pair_masks(int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2], float nearest[2]) const;
+  void pair_masks(ClusterPairKernel kernel, int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2],
+                  float nearest[2]) const;
 
   Box box_;
   double cutoff_, skin_;

@@ -1,5 +1,5 @@
 // Lennard-Jones pair kernels (formulas and conventions: lennard_jones.hpp), as templates on the
-// number type: double, or SimdDouble (simd-inl.h). A Highway per-target header: see simd-inl.h.
+// number type: double, or SimdDouble (engine/simd-inl.h). A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
 #undef VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
@@ -8,7 +8,7 @@
 #endif
 
 #include "forcefields/lennard_jones.hpp"
-#include "forcefields/simd-inl.h"
+#include "engine/simd-inl.h"
 #include "forcefields/switch_function-inl.h"
 
 HWY_BEFORE_NAMESPACE();

@@ -8,7 +8,7 @@
 //   energy_force: φ and g = −φ'(r)/r, so the force on i is g d;
 //   hessian:      a = φ'(r)/r and b = (φ'' − φ'/r)/r², so the pair Hessian block is a I + b d dᵀ.
 // They are branch-free templates on the number type T: double for reference sums, SimdDouble
-// (simd-inl.h) for the pair loop, which evaluates one SIMD vector of j atoms at once.
+// (engine/simd-inl.h) for the pair loop, which evaluates one SIMD vector of j atoms at once.
 #include <string>
 
 #include "forcefields/switch_function.hpp"

@@ -1,5 +1,5 @@
 // Reaction-field pair kernels (formulas and conventions: reaction_field.hpp), as templates on the
-// number type: double, or SimdDouble (simd-inl.h). A Highway per-target header: see simd-inl.h.
+// number type: double, or SimdDouble (engine/simd-inl.h). A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_
 #undef VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_
@@ -10,7 +10,7 @@
 #include <cmath>
 
 #include "forcefields/reaction_field.hpp"
-#include "forcefields/simd-inl.h"
+#include "engine/simd-inl.h"
 #include "forcefields/switch_function-inl.h"
 
 HWY_BEFORE_NAMESPACE();

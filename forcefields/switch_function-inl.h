@@ -1,5 +1,5 @@
 // Evaluation of the potential switch (switch_function.hpp), as templates on the number type:
-// double, or SimdDouble (simd-inl.h). A Highway per-target header: see simd-inl.h.
+// double, or SimdDouble (engine/simd-inl.h). A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_SWITCH_FUNCTION_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_SWITCH_FUNCTION_INL_H_
 #undef VIMD_FORCEFIELDS_SWITCH_FUNCTION_INL_H_
@@ -7,7 +7,7 @@
 #define VIMD_FORCEFIELDS_SWITCH_FUNCTION_INL_H_
 #endif
 
-#include "forcefields/simd-inl.h"
+#include "engine/simd-inl.h"
 #include "forcefields/switch_function.hpp"
 
 HWY_BEFORE_NAMESPACE();

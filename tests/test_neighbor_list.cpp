@@ -295,33 +295,37 @@ TEST(PairKernels, AtomTypesWithoutLennardJonesOnEveryTarget) {
   simd::use_target("");
 }
 
-// Pairs a hair inside cut-off + skin at a pruning stay listed, also where the pruning runs on
-// single-precision positions (mixed precision), whose rounding is far larger than the hair; on
-// every SIMD target.
-TEST(NeighborList, PruningKeepsPairsAtTheEdgeOfItsRange) {
+// Pairs a hair inside cut-off + skin stay listed: by the search where the list is not pruned, and
+// by a pruning otherwise, also where it runs on single-precision positions (mixed precision),
+// whose rounding is far larger than the hair; on every SIMD target.
+TEST(NeighborList, KeepsPairsAtTheEdgeOfItsRange) {
   for (const std::string& target : simd::available_targets()) {
     simd::use_target(target);
-    for (const char* precision : {"double", "mixed"}) {
-      auto [system, q] = testing::water_like_system(500, Vec3(3.0, 3.1, 3.2), 41);
-      auto config = testing::pair_config("potential-shift", "reaction-field");
-      config.precision = precision;
-      const double range = config.cutoff + config.neighbor_skin;
-      std::vector<bool> moved(q.cols(), false);
-      std::vector<std::pair<int, int>> edge_pairs;
-      testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
-        if (std::abs(r - range) > 0.05 || moved[i] || moved[j]) return;
-        const Vec3 d = system.box.minimum_image(q.col(j) - q.col(i));
-        q.col(j) = q.col(i) + (range - 1e-9) / d.norm() * d;
-        moved[i] = moved[j] = true;
-        edge_pairs.emplace_back(i, j);
-      });
-      ASSERT_GT(edge_pairs.size(), 100u);
-      NonbondedPairTerm term(system, config);
-      ASSERT_LT(term.skin(), term.search_skin()) << "the list must be pruned for this test";
-      testing::evaluate(term, q);
-      int missing = 0;
-      for (const auto& [i, j] : edge_pairs) missing += !term.lists_pair(i, j);
-      EXPECT_EQ(missing, 0) << target << ", " << precision << ": of " << edge_pairs.size() << " pairs at the edge";
+    for (const bool pruned : {true, false}) {
+      for (const char* precision : {"double", "mixed"}) {
+        auto [system, q] = testing::water_like_system(500, Vec3(3.0, 3.1, 3.2), 41);
+        auto config = testing::pair_config("potential-shift", "reaction-field");
+        config.precision = precision;
+        if (!pruned) config.neighbor_search_skin = config.neighbor_skin;
+        const double range = config.cutoff + config.neighbor_skin;
+        std::vector<bool> moved(q.cols(), false);
+        std::vector<std::pair<int, int>> edge_pairs;
+        testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
+          if (std::abs(r - range) > 0.05 || moved[i] || moved[j]) return;
+          const Vec3 d = system.box.minimum_image(q.col(j) - q.col(i));
+          q.col(j) = q.col(i) + (range - 1e-9) / d.norm() * d;
+          moved[i] = moved[j] = true;
+          edge_pairs.emplace_back(i, j);
+        });
+        ASSERT_GT(edge_pairs.size(), 100u);
+        NonbondedPairTerm term(system, config);
+        ASSERT_EQ(term.skin() < term.search_skin(), pruned);
+        testing::evaluate(term, q);
+        int missing = 0;
+        for (const auto& [i, j] : edge_pairs) missing += !term.lists_pair(i, j);
+        EXPECT_EQ(missing, 0) << target << (pruned ? ", pruned, " : ", searched, ") << precision << ": of "
+                              << edge_pairs.size() << " pairs at the edge";
+      }
     }
   }
   simd::use_target("");

@@ -1,18 +1,20 @@
 // The one SIMD layer (Google Highway): a native vector of doubles as a number type, so that the
 // functional forms (lennard_jones-inl.h, reaction_field-inl.h) are written once, as templates on
 // the number type, and instantiated for double (reference sums, tests) and for SimdDouble (the
-// pair loops of nonbonded_kernels.cpp). Its width is the target's: 8 lanes on AVX-512, 4 on AVX2,
-// 2 on SSE4. SimdFloat, the same in single precision (up to 8 lanes), serves the mixed-precision
-// force kernel. No intrinsics outside this file; Highway picks the target at run time.
+// pair loops of forcefields/nonbonded_kernels.cpp, the neighbour search's cluster-pair distances
+// in cluster_pair_kernels.cpp). Its width is the target's: 8 lanes on AVX-512, 4 on AVX2, 2 on
+// SSE4. SimdFloat, the same in single precision (up to 8 lanes), serves the mixed-precision
+// kernels. No intrinsics outside this file; Highway picks the target at run time (one choice for
+// all kernels: simd::use_target).
 //
 // Highway's per-target header: included once per compiled target (foreach_target.h re-includes
 // the kernel file), so it has a toggle guard instead of #pragma once, and everything lives in
 // vimd::HWY_NAMESPACE, the target's own namespace.
-#if defined(VIMD_FORCEFIELDS_SIMD_INL_H_) == defined(HWY_TARGET_TOGGLE)
-#ifdef VIMD_FORCEFIELDS_SIMD_INL_H_
-#undef VIMD_FORCEFIELDS_SIMD_INL_H_
+#if defined(VIMD_ENGINE_SIMD_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef VIMD_ENGINE_SIMD_INL_H_
+#undef VIMD_ENGINE_SIMD_INL_H_
 #else
-#define VIMD_FORCEFIELDS_SIMD_INL_H_
+#define VIMD_ENGINE_SIMD_INL_H_
 #endif
 
 #include <cstdint>
@@ -178,6 +180,19 @@ HWY_INLINE SimdVec<Real>& operator-=(SimdVec<Real>& a, SimdVec<Real> b) {
   return a = a - b;
 }
 
+template <class Real>
+HWY_INLINE SimdVec<Real> simd_min(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Min(a.v, b.v)};
+}
+template <class Real>
+HWY_INLINE SimdVec<Real> simd_max(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Max(a.v, b.v)};
+}
+template <class Real>
+HWY_INLINE double simd_min_lane(SimdVec<Real> x) {
+  return static_cast<double>(hn::GetLane(hn::MinOfLanes(typename SimdVec<Real>::Tag(), x.v)));
+}
+
 // max(x, 0), for scalars and vectors alike (the kernels are templates on the number type).
 HWY_INLINE double positive_part(double x) { return x > 0 ? x : 0.0; }
 template <class Real>
@@ -189,4 +204,4 @@ HWY_INLINE SimdVec<Real> positive_part(SimdVec<Real> x) {
 }  // namespace vimd
 HWY_AFTER_NAMESPACE();
 
-#endif  // VIMD_FORCEFIELDS_SIMD_INL_H_
+#endif  // VIMD_ENGINE_SIMD_INL_H_
