@@ -99,6 +99,10 @@ HWY_INLINE SimdVec<Real> keep(SimdMaskOf<Real> m, SimdVec<Real> x) {
   return {hn::IfThenElseZero(m.m, x.v)};
 }
 template <class Real>
+HWY_INLINE SimdMaskOf<Real> operator<(SimdVec<Real> a, SimdVec<Real> b) {
+  return {hn::Lt(a.v, b.v)};
+}
+template <class Real>
 HWY_INLINE SimdMaskOf<Real> operator<(SimdVec<Real> a, double b) {
   return {hn::Lt(a.v, SimdVec<Real>::broadcast(b).v)};
 }

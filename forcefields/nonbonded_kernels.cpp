@@ -54,7 +54,7 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
   using Mask = SimdMaskOf<Real>;
   const int lanes = V::lanes();
   const unsigned lane_bits = (1u << lanes) - 1;
-  const V one = V::broadcast(1.0), zero = V::zero();
+  const V one = V::broadcast(1.0), zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if constexpr (kEnergies) half_lj[h] = half_coulomb[h] = 0;
@@ -80,7 +80,7 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
           if (bits == 0) continue;
           const V dx = V::broadcast(hi.x[ii]) - xj, dy = V::broadcast(hi.y[ii]) - yj, dz = V::broadcast(hi.z[ii]) - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
-          const Mask inside = mask_from_bits<Real>(bits) & (r2 < d.cutoff2);
+          const Mask inside = mask_from_bits<Real>(bits) & (r2 < cutoff2);
           if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
           const V r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
           const V rinv = simd_rsqrt(r2s);
