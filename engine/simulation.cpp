@@ -58,6 +58,16 @@ std::string atom_label(const System& system, int i) {
 constexpr double kAbsurdForce = 1e6;     // kJ/mol/nm
 constexpr double kAbsurdVelocity = 1e3;  // nm/ps
 constexpr double kAbsurdPosition = 1e6;  // nm
+// Per-atom loops of the run loop go parallel from this many atoms (below, a team costs more).
+constexpr int kParallelCheckAtoms = 256;
+
+// dst = src for coordinates of the same shape, atoms in parallel.
+void parallel_copy(const Coords& src, Coords& dst) {
+  dst.resize(3, src.cols());
+  const int n = static_cast<int>(src.cols());
+#pragma omp parallel for schedule(static) if (n >= kParallelCheckAtoms)
+  for (int i = 0; i < n; ++i) dst.col(i) = src.col(i);
+}
 
 }  // namespace
 
@@ -70,7 +80,14 @@ void Simulation::check_sane(const State& state) const {
     const auto col = c.col(i);
     return !col.allFinite() || col.norm() > limit;
   };
-  for (int i = 0; i < system.n_atoms(); ++i) {
+  const int n = system.n_atoms();
+  // A parallel look first; the serial pass below, which names the atoms, runs only on a find.
+  bool any_bad = false;
+#pragma omp parallel for schedule(static) reduction(|| : any_bad) if (n >= kParallelCheckAtoms)
+  for (int i = 0; i < n; ++i)
+    any_bad = any_bad || bad(state.q, i, kAbsurdPosition) || bad(state.v, i, kAbsurdVelocity) ||
+              bad(state.f, i, kAbsurdForce);
+  for (int i = 0; any_bad && i < n; ++i) {
     const char* what = bad(state.q, i, kAbsurdPosition)   ? "position"
                        : bad(state.v, i, kAbsurdVelocity) ? "velocity"
                        : bad(state.f, i, kAbsurdForce)    ? "force"
@@ -212,7 +229,9 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
   State last_good;
   try {
     while (state.step < info.last_step) {
-      last_good.q = state.q, last_good.v = state.v, last_good.step = state.step, last_good.time = state.time;
+      parallel_copy(state.q, last_good.q);
+      parallel_copy(state.v, last_good.v);
+      last_good.step = state.step, last_good.time = state.time;
       problem_.energies_due = energies_due_at(state.step + 1);
       report = integrator_.step(problem_, state);
       ++state.step;

@@ -7,11 +7,12 @@
 #include <utility>
 
 #include "engine/errors.hpp"
+#include "integrators/coords_ops.hpp"
 
 namespace vimd {
 
 void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v) {
-  for (Eigen::Index i = 0; i < v.cols(); ++i) v.col(i) += (h * inverse_mass[i]) * f.col(i);
+  for_each_atom(static_cast<int>(v.cols()), [&](int i) { v.col(i) += (h * inverse_mass[i]) * f.col(i); });
 }
 
 void evaluate_forces(Problem& problem, State& state, Forces& scratch, bool energies) {
