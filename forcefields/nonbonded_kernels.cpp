@@ -242,8 +242,7 @@ template <class Real>
 void mask_halves(const PairViewOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
   const int lanes = V::lanes();
-  const unsigned lane_bits = (1u << lanes) - 1;
-  const Real range2 = static_cast<Real>(d.cutoff2);
+  const V range2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
     HalfData<Real> hi;
     load_half(d, h, hi);
@@ -259,15 +258,14 @@ void mask_halves(const PairViewOf<Real>& d, int h0, int h1, double skip_from, st
         const int jb = entry.j_cluster * kC + js;
         const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
                 zj = simd_load(d.z + jb) + shift[2];
+        // Every lane, listed or not (padding and excluded pairs have finite distances too); the
+        // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
         for (int ii = 0; ii < kH; ++ii) {
-          const unsigned bits = (entry.mask >> (ii * kC + js)) & lane_bits;
-          if (bits == 0) continue;
           const V dx = V::broadcast(hi.x[ii]) - xj, dy = V::broadcast(hi.y[ii]) - yj, dz = V::broadcast(hi.z[ii]) - zj;
-          const SimdMaskOf<Real> inside = mask_from_bits<Real>(bits) & (dx * dx + dy * dy + dz * dz < range2);
-          inside_bits |= bits_from_mask(inside) << (ii * kC + js);
+          inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
         }
       }
-      inside_masks[e] = inside_bits;
+      inside_masks[e] = inside_bits & entry.mask;
     }
   }
 }
