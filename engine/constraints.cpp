@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "engine/errors.hpp"
+#include "engine/settle_kernels.hpp"
 
 namespace vimd {
 
@@ -117,6 +118,7 @@ struct Constraints::Layout {
     double d_side, d_base;
   };
   std::vector<Triangle> triangles;
+  std::vector<int> triangle_clusters;  // the clusters with a valid triangle, in order
 
   Vec3 bond(const Coords& q, int p) const { return box.minimum_image(q.col(atom_i[p]) - q.col(atom_j[p])); }
   // Entry factor of S = G W Gᵀ for positions p, r (p == r gives w_i + w_j).
@@ -144,74 +146,73 @@ struct Constraints::Layout {
   // same equations as solve_small_positions (displacements along the q_ref bonds, weighted by w)
   // for a rigid isosceles triangle whose two base atoms have equal weights: the centre of mass
   // stays, each atom keeps its height above the q_ref plane, and one in-plane rotation is fixed by
-  // the torque condition. False (q untouched) where it does not apply or did not reach tolerance
-  // (q_ref off the constraints, degenerate geometry); Newton then solves the cluster.
-  bool settle_positions(const Cluster& cl, const Coords& q_ref, Coords& q, const double* w, double tolerance,
-                        ClusterOutcome& out) const {
+  // the torque condition. In three parts: settle_prepare writes lane k of a batch's input (or
+  // finds SETTLE does not apply: q_ref off the constraints, unequal weights; or that q already
+  // satisfies them), the kernel (settle_kernels.cpp) rotates the whole batch, settle_finish checks
+  // and writes lane k's result. Where a part fails, q is untouched and Newton solves the cluster.
+  struct SettlePending {
+    int cluster;
+    Vec3 apex1, image_b, image_c;
+  };
+  enum class Settle { not_applicable, already_satisfied, prepared };
+  Settle settle_prepare(const Cluster& cl, const Coords& q_ref, const Coords& q, const double* w, double tolerance,
+                        double* in, int k, SettlePending& pending, ClusterOutcome& out) const {
     const Triangle& t = triangles[cl.slot];
-    if (!t.valid || w[t.h1] != w[t.h2] || !(w[t.apex] > 0) || !(w[t.h1] > 0)) return false;
+    if (!t.valid || w[t.h1] != w[t.h2] || !(w[t.apex] > 0) || !(w[t.h1] > 0)) return Settle::not_applicable;
     // Bond vectors from the apex, with the periodic image of q_ref (as solve_small_positions).
     const Vec3 raw_b = q_ref.col(t.h1) - q_ref.col(t.apex), raw_c = q_ref.col(t.h2) - q_ref.col(t.apex);
     const Vec3 b0 = box.minimum_image(raw_b), c0 = box.minimum_image(raw_c);
     if (!within(b0.squaredNorm(), t.d_side, tolerance) || !within(c0.squaredNorm(), t.d_side, tolerance) ||
         !within((c0 - b0).squaredNorm(), t.d_base, tolerance))
-      return false;
-    const Vec3 image_b = b0 - raw_b, image_c = c0 - raw_c;
-    const Vec3 apex1 = q.col(t.apex);
-    const Vec3 b1_apex = q.col(t.h1) - apex1 + image_b, c1_apex = q.col(t.h2) - apex1 + image_c;
-    const int position[3] = {t.ab, t.ac, t.bc};
-    auto outcome = [&](const Vec3& ab, const Vec3& ac, int iterations) {
-      const double deviation[3] = {relative_deviation(ab.squaredNorm(), t.d_side),
-                                   relative_deviation(ac.squaredNorm(), t.d_side),
-                                   relative_deviation((ac - ab).squaredNorm(), t.d_base)};
-      out = ClusterOutcome{};
-      out.iterations = iterations;
-      out.worst = cl.begin + position[0];
-      for (int k = 0; k < 3; ++k) {
-        if (!(deviation[k] <= tolerance)) return false;  // also NaN: a displacement too large for the triangle
-        if (deviation[k] > out.deviation) out.deviation = deviation[k], out.worst = cl.begin + position[k];
-      }
-      return true;
-    };
+      return Settle::not_applicable;
+    pending.image_b = b0 - raw_b;
+    pending.image_c = c0 - raw_c;
+    pending.apex1 = q.col(t.apex);
+    const Vec3 b1_apex = q.col(t.h1) - pending.apex1 + pending.image_b;
+    const Vec3 c1_apex = q.col(t.h2) - pending.apex1 + pending.image_c;
     // Already on the constraints: left exactly as it is, as Newton leaves it.
     if (within(b1_apex.squaredNorm(), t.d_side, tolerance) && within(c1_apex.squaredNorm(), t.d_side, tolerance) &&
-        within((c1_apex - b1_apex).squaredNorm(), t.d_base, tolerance) && outcome(b1_apex, c1_apex, 0))
-      return true;
-    // Body frame: centre of mass at the origin, apex at (0, ra), base atoms at (∓rc, −rb).
-    const double w_apex = w[t.apex], w_h = w[t.h1];
-    const double base_weight = w_apex / (w_h + 2 * w_apex);  // m_H / M
+        within((c1_apex - b1_apex).squaredNorm(), t.d_base, tolerance) &&
+        settle_outcome(cl, b1_apex, c1_apex, 0, tolerance, out))
+      return Settle::already_satisfied;
+    const double base_weight = w[t.apex] / (w[t.h1] + 2 * w[t.apex]);  // m_H / M
     const double rc = 0.5 * t.d_base, height = std::sqrt(t.d_side * t.d_side - rc * rc);
-    const double ra = 2 * base_weight * height, rb = height - ra;
-    const Vec3 com = base_weight * (b1_apex + c1_apex);  // relative to the new apex
-    const Vec3 a1 = -com, b1 = b1_apex - com, c1 = c1_apex - com;
-    // Frame: z normal to the q_ref plane, x normal to the apex's offset and z.
-    Vec3 n0 = b0.cross(c0), n1 = a1.cross(n0), n2 = n0.cross(n1);
-    n0.normalize();
-    n1.normalize();
-    n2.normalize();
-    const double b0x = n1.dot(b0), b0y = n2.dot(b0), c0x = n1.dot(c0), c0y = n2.dot(c0);
-    const double a1z = n0.dot(a1);
-    const double b1x = n1.dot(b1), b1y = n2.dot(b1), b1z = n0.dot(b1);
-    const double c1x = n1.dot(c1), c1y = n2.dot(c1), c1z = n0.dot(c1);
-    const double sin_phi = a1z / ra, cos_phi = std::sqrt(1 - sin_phi * sin_phi);
-    const double sin_psi = (b1z - c1z) / (2 * rc * cos_phi), cos_psi = std::sqrt(1 - sin_psi * sin_psi);
-    const double a2y = ra * cos_phi, b2x = -rc * cos_psi;
-    const double t1 = -rb * cos_phi, t2 = rc * sin_psi * sin_phi;
-    const double b2y = t1 - t2, c2y = t1 + t2;
-    const double alpha = b2x * (b0x - c0x) + b0y * b2y + c0y * c2y;
-    const double beta = b2x * (c0y - b0y) + b0x * b2y + c0x * c2y;
-    const double gamma = b0x * b1y - b1x * b0y + c0x * c1y - c1x * c0y;
-    const double al2be2 = alpha * alpha + beta * beta;
-    const double sin_theta = (alpha * gamma - beta * std::sqrt(al2be2 - gamma * gamma)) / al2be2;
-    const double cos_theta = std::sqrt(1 - sin_theta * sin_theta);
-    auto lab = [&](double x, double y, double z) { return Vec3(apex1 + com + x * n1 + y * n2 + z * n0); };
-    const Vec3 a3 = lab(-a2y * sin_theta, a2y * cos_theta, a1z);
-    const Vec3 b3 = lab(b2x * cos_theta - b2y * sin_theta, b2x * sin_theta + b2y * cos_theta, b1z);
-    const Vec3 c3 = lab(-b2x * cos_theta - c2y * sin_theta, -b2x * sin_theta + c2y * cos_theta, c1z);
-    if (!outcome(b3 - a3, c3 - a3, 1)) return false;
-    q.col(t.apex) = a3;
-    q.col(t.h1) = b3 - image_b;
-    q.col(t.h2) = c3 - image_c;
+    const double ra = 2 * base_weight * height;
+    const double fields[kSettleInFields] = {b0.x(),      b0.y(),      b0.z(),      c0.x(),  c0.y(),
+                                            c0.z(),      b1_apex.x(), b1_apex.y(), b1_apex.z(), c1_apex.x(),
+                                            c1_apex.y(), c1_apex.z(), base_weight, ra,     height - ra,
+                                            rc};
+    for (int f = 0; f < kSettleInFields; ++f) in[f * kSettleBatch + k] = fields[f];
+    return Settle::prepared;
+  }
+  bool settle_finish(const Cluster& cl, const SettlePending& pending, const double* result, int k, Coords& q,
+                     double tolerance, ClusterOutcome& out) const {
+    const Triangle& t = triangles[cl.slot];
+    auto at = [&](int x) { return Vec3(result[x * kSettleBatch + k], result[(x + 1) * kSettleBatch + k],
+                                       result[(x + 2) * kSettleBatch + k]); };
+    const Vec3 a3 = at(kAx), b3 = at(kBx), c3 = at(kCx);
+    if (!settle_outcome(cl, b3 - a3, c3 - a3, 1, tolerance, out)) return false;
+    q.col(t.apex) = pending.apex1 + a3;
+    q.col(t.h1) = pending.apex1 + b3 - pending.image_b;
+    q.col(t.h2) = pending.apex1 + c3 - pending.image_c;
+    return true;
+  }
+  // The outcome of a triangle whose apex→h1 and apex→h2 bonds are ab and ac; false where a side
+  // deviates by more than the tolerance (also NaN: a displacement too large for the triangle).
+  bool settle_outcome(const Cluster& cl, const Vec3& ab, const Vec3& ac, int iterations, double tolerance,
+                      ClusterOutcome& out) const {
+    const Triangle& t = triangles[cl.slot];
+    const int position[3] = {t.ab, t.ac, t.bc};
+    const double deviation[3] = {relative_deviation(ab.squaredNorm(), t.d_side),
+                                 relative_deviation(ac.squaredNorm(), t.d_side),
+                                 relative_deviation((ac - ab).squaredNorm(), t.d_base)};
+    out = ClusterOutcome{};
+    out.iterations = iterations;
+    out.worst = cl.begin + position[0];
+    for (int k = 0; k < 3; ++k) {
+      if (!(deviation[k] <= tolerance)) return false;
+      if (deviation[k] > out.deviation) out.deviation = deviation[k], out.worst = cl.begin + position[k];
+    }
     return true;
   }
 
@@ -559,6 +560,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     if (cl.kind == Kind::Small) {
       cl.slot = L.n_small++;
       L.triangles.push_back(rigid_triangle(L, cl));
+      if (L.triangles.back().valid) L.triangle_clusters.push_back(static_cast<int>(L.clusters.size()));
       L.clusters.push_back(cl);
       continue;
     }
@@ -854,20 +856,58 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
     }
   };
 
-#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
-  for (int c = 0; c < nc; ++c) {
-    const auto& cl = L.clusters[c];
-    ClusterOutcome out;
-    // SETTLE gives positions, not multipliers: only where nobody asks for them.
-    if (cl.kind != Kind::Small || lambda_out || !L.settle_positions(cl, q_ref, q, wp, tolerance, out))
-      out = cl.kind == Kind::Small
-                ? L.solve_small_positions(cl, q_ref, q, wp, tolerance, max_iterations, ws.lambda.data() + cl.begin)
-                : solve_dynamic(cl);
+  auto record = [&](int c, const ClusterOutcome& out) {
     ws.iterations[c] = out.iterations;
     ws.worst[c] = out.worst;
     ws.deviation[c] = out.deviation;
     ws.failed[c] = out.failed;
     ws.singular[c] = out.singular;
+  };
+  auto newton = [&](const Layout::Cluster& cl) {
+    return cl.kind == Kind::Small
+               ? L.solve_small_positions(cl, q_ref, q, wp, tolerance, max_iterations, ws.lambda.data() + cl.begin)
+               : solve_dynamic(cl);
+  };
+  // SETTLE gives positions, not multipliers: only where nobody asks for them. Rigid triangles go
+  // in batches of kSettleBatch through the SIMD kernel; every other cluster, and a triangle SETTLE
+  // cannot take, through Newton.
+  const bool settle = !lambda_out && !L.triangle_clusters.empty();
+  if (settle) {
+    const SettleKernel kernel = simd::settle_kernel();
+    const int n_triangles = static_cast<int>(L.triangle_clusters.size());
+    const int n_batches = (n_triangles + kSettleBatch - 1) / kSettleBatch;
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+    for (int batch = 0; batch < n_batches; ++batch) {
+      double in[kSettleInFields * kSettleBatch], result[kSettleOutFields * kSettleBatch];
+      Layout::SettlePending pending[kSettleBatch];
+      int count = 0;
+      for (int k = batch * kSettleBatch; k < std::min(n_triangles, (batch + 1) * kSettleBatch); ++k) {
+        const int c = L.triangle_clusters[k];
+        ClusterOutcome out;
+        switch (L.settle_prepare(L.clusters[c], q_ref, q, wp, tolerance, in, count, pending[count], out)) {
+          case Layout::Settle::prepared: pending[count++].cluster = c; break;
+          case Layout::Settle::already_satisfied: record(c, out); break;
+          case Layout::Settle::not_applicable: record(c, newton(L.clusters[c])); break;
+        }
+      }
+      if (count == 0) continue;
+      // The lanes past `count` repeat the last molecule (a full vector is computed, then ignored).
+      for (int f = 0; f < kSettleInFields; ++f)
+        std::fill(in + f * kSettleBatch + count, in + (f + 1) * kSettleBatch, in[f * kSettleBatch + count - 1]);
+      kernel(count, in, result);
+      for (int k = 0; k < count; ++k) {
+        const auto& cl = L.clusters[pending[k].cluster];
+        ClusterOutcome out;
+        if (!L.settle_finish(cl, pending[k], result, k, q, tolerance, out)) out = newton(cl);
+        record(pending[k].cluster, out);
+      }
+    }
+  }
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int c = 0; c < nc; ++c) {
+    const auto& cl = L.clusters[c];
+    if (settle && cl.kind == Kind::Small && L.triangles[cl.slot].valid) continue;  // done above
+    record(c, newton(cl));
   }
 
   // Report the failed cluster that is furthest off; a diverged (NaN) one first.

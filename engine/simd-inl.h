@@ -189,6 +189,10 @@ HWY_INLINE SimdVec<Real> simd_min(SimdVec<Real> a, SimdVec<Real> b) {
   return {hn::Min(a.v, b.v)};
 }
 template <class Real>
+HWY_INLINE SimdVec<Real> simd_sqrt(SimdVec<Real> x) {
+  return {hn::Sqrt(x.v)};
+}
+template <class Real>
 HWY_INLINE SimdVec<Real> simd_max(SimdVec<Real> a, SimdVec<Real> b) {
   return {hn::Max(a.v, b.v)};
 }

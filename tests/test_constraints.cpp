@@ -8,6 +8,8 @@
 
 #include "engine/constraints.hpp"
 #include "engine/errors.hpp"
+#include "engine/settle_kernels.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "tests/constrained_systems.hpp"
 
 namespace vimd {
@@ -251,13 +253,13 @@ TEST(Constraints, LargeChainCorrectionsSwitchToExactNewton) {
 // the same equations, so they must agree to round-off, for waters split by the box faces too (all
 // atoms wrapped). SETTLE does it in one pass; with unequal hydrogen weights it does not apply and
 // Newton runs.
-TEST(Constraints, SettleMatchesNewtonOnRigidWater) {
+void expect_settle_matches_newton() {
   System s;
   Coords q;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> uniform(0.0, 2.0);
   s.box.length = Vec3::Constant(2.0);
-  for (int k = 0; k < 60; ++k) add_water(s, q, Vec3(uniform(rng), uniform(rng), uniform(rng)), rng);
+  for (int k = 0; k < 2 * kSettleBatch + 22; ++k) add_water(s, q, Vec3(uniform(rng), uniform(rng), uniform(rng)), rng);
   testing::wrap(s.box, q);
   const Constraints constraints(s.constraints, s.n_atoms(), s.box);
   Eigen::VectorXd w = s.mass.cwiseInverse();
@@ -276,6 +278,17 @@ TEST(Constraints, SettleMatchesNewtonOnRigidWater) {
       EXPECT_EQ(passes == 1, equal_hydrogens) << "scale " << scale << ", " << passes << " iterations";
     }
   }
+}
+
+// SETTLE runs in batches of kSettleBatch molecules (here two full and a partial one) through the
+// SIMD kernel: on every target.
+TEST(Constraints, SettleMatchesNewtonOnRigidWater) {
+  for (const std::string& target : simd::available_targets()) {
+    SCOPED_TRACE(target);
+    simd::use_target(target);
+    expect_settle_matches_newton();
+  }
+  simd::use_target("");
 }
 
 TEST(Constraints, SolvePositionsOnSatisfiedConstraintsDoesNothing) {

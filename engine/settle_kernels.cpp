@@ -1,0 +1,89 @@
+// SETTLE (Miyamoto & Kollman, J. Comput. Chem. 13, 952 (1992)) for a batch of molecules, once per
+// SIMD target (Highway's foreach_target re-includes this file), one molecule per lane: its square
+// roots and divisions, latency-bound one molecule at a time, overlap across the lanes.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "engine/settle_kernels.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+
+#include "engine/settle_kernels.hpp"
+#include "engine/simd-inl.h"
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace vimd {
+namespace HWY_NAMESPACE {
+namespace {
+
+using V = SimdDouble;
+
+struct V3 {
+  V x, y, z;
+};
+HWY_INLINE V3 operator+(const V3& a, const V3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+HWY_INLINE V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+HWY_INLINE V3 operator*(V s, const V3& a) { return {s * a.x, s * a.y, s * a.z}; }
+HWY_INLINE V dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+HWY_INLINE V3 cross(const V3& a, const V3& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+HWY_INLINE V3 normalized(const V3& a) { return (1.0 / simd_sqrt(dot(a, a))) * a; }
+
+void settle_batch(int count, const double* in, double* out) {
+  const int lanes = V::lanes();
+  auto field = [&](int f, int k) { return simd_load(in + f * kSettleBatch + k); };
+  for (int k = 0; k < count; k += lanes) {
+    const V3 b0{field(kB0x, k), field(kB0y, k), field(kB0z, k)}, c0{field(kC0x, k), field(kC0y, k), field(kC0z, k)};
+    const V3 b1_apex{field(kB1x, k), field(kB1y, k), field(kB1z, k)};
+    const V3 c1_apex{field(kC1x, k), field(kC1y, k), field(kC1z, k)};
+    const V base_weight = field(kBaseWeight, k), ra = field(kRa, k), rb = field(kRb, k), rc = field(kRc, k);
+    // Body frame: centre of mass at the origin, apex at (0, ra), base atoms at (∓rc, −rb).
+    const V3 com = base_weight * (b1_apex + c1_apex);  // relative to the unconstrained apex
+    const V3 a1 = V3{-com.x, -com.y, -com.z}, b1 = b1_apex - com, c1 = c1_apex - com;
+    // Frame: z normal to the reference plane, x normal to the apex's offset and z.
+    const V3 n0 = normalized(cross(b0, c0));
+    const V3 n1 = normalized(cross(a1, n0));
+    const V3 n2 = normalized(cross(n0, n1));
+    const V b0x = dot(n1, b0), b0y = dot(n2, b0), c0x = dot(n1, c0), c0y = dot(n2, c0);
+    const V a1z = dot(n0, a1);
+    const V b1x = dot(n1, b1), b1y = dot(n2, b1), b1z = dot(n0, b1);
+    const V c1x = dot(n1, c1), c1y = dot(n2, c1), c1z = dot(n0, c1);
+    const V sin_phi = a1z / ra, cos_phi = simd_sqrt(1.0 - sin_phi * sin_phi);
+    const V sin_psi = (b1z - c1z) / (2.0 * rc * cos_phi), cos_psi = simd_sqrt(1.0 - sin_psi * sin_psi);
+    const V a2y = ra * cos_phi, b2x = -(rc * cos_psi);
+    const V t1 = -(rb * cos_phi), t2 = rc * sin_psi * sin_phi;
+    const V b2y = t1 - t2, c2y = t1 + t2;
+    const V alpha = b2x * (b0x - c0x) + b0y * b2y + c0y * c2y;
+    const V beta = b2x * (c0y - b0y) + b0x * b2y + c0x * c2y;
+    const V gamma = b0x * b1y - b1x * b0y + c0x * c1y - c1x * c0y;
+    const V al2be2 = alpha * alpha + beta * beta;
+    const V sin_theta = (alpha * gamma - beta * simd_sqrt(al2be2 - gamma * gamma)) / al2be2;
+    const V cos_theta = simd_sqrt(1.0 - sin_theta * sin_theta);
+    auto lab = [&](V x, V y, V z) { return com + x * n1 + y * n2 + z * n0; };
+    const V3 a3 = lab(-(a2y * sin_theta), a2y * cos_theta, a1z);
+    const V3 b3 = lab(b2x * cos_theta - b2y * sin_theta, b2x * sin_theta + b2y * cos_theta, b1z);
+    const V3 c3 = lab(-(b2x * cos_theta) - c2y * sin_theta, -(b2x * sin_theta) + c2y * cos_theta, c1z);
+    const V3* result[3] = {&a3, &b3, &c3};
+    for (int a = 0; a < 3; ++a) {
+      simd_store(out + (3 * a) * kSettleBatch + k, result[a]->x);
+      simd_store(out + (3 * a + 1) * kSettleBatch + k, result[a]->y);
+      simd_store(out + (3 * a + 2) * kSettleBatch + k, result[a]->z);
+    }
+  }
+}
+
+}  // namespace
+
+SettleKernel SettleKernelFor() { return settle_batch; }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace vimd
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace vimd {
+HWY_EXPORT(SettleKernelFor);
+namespace simd {
+SettleKernel settle_kernel() { return HWY_DYNAMIC_DISPATCH(SettleKernelFor)(); }
+}  // namespace simd
+}  // namespace vimd
+#endif  // HWY_ONCE

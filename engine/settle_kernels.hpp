@@ -1,0 +1,21 @@
+#pragma once
+// SETTLE's rotation (engine/constraints.cpp) for a batch of rigid 3-site molecules at once, in
+// vectors of the chosen SIMD target (settle_kernels.cpp; simd::use_target chooses for all kernels).
+namespace vimd {
+
+// Structure of arrays: field f of molecule k at [f * kSettleBatch + k].
+inline constexpr int kSettleBatch = 64;
+// In, per molecule, in the apex-centred frame: the reference bonds apex→h1 (b0) and apex→h2 (c0),
+// the unconstrained bonds (b1, c1), the mass fraction m_H / M of each base atom, and the body
+// frame's apex height ra, base depth rb and half base rc.
+enum SettleIn { kB0x, kB0y, kB0z, kC0x, kC0y, kC0z, kB1x, kB1y, kB1z, kC1x, kC1y, kC1z, kBaseWeight, kRa, kRb, kRc,
+                kSettleInFields };
+// Out: the constrained positions of apex, h1 and h2 relative to the unconstrained apex.
+enum SettleOut { kAx, kAy, kAz, kBx, kBy, kBz, kCx, kCy, kCz, kSettleOutFields };
+using SettleKernel = void (*)(int count, const double* in, double* out);
+
+namespace simd {
+SettleKernel settle_kernel();
+}  // namespace simd
+
+}  // namespace vimd
