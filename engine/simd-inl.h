@@ -201,6 +201,16 @@ HWY_INLINE double simd_min_lane(SimdVec<Real> x) {
   return static_cast<double>(hn::GetLane(hn::MinOfLanes(typename SimdVec<Real>::Tag(), x.v)));
 }
 
+// a·b + c as one explicit operation (fused where the target has FMA), for scalars and vectors
+// alike. Where a sum's rounding must not depend on its surroundings: the compiler's own
+// contraction of a·b + c into an FMA can change with what else uses a·b (seen on AVX2: the force
+// kernel with energies and without rounded the same force differently).
+HWY_INLINE double mul_add(double a, double b, double c) { return a * b + c; }
+template <class Real>
+HWY_INLINE SimdVec<Real> mul_add(SimdVec<Real> a, SimdVec<Real> b, SimdVec<Real> c) {
+  return {hn::MulAdd(a.v, b.v, c.v)};
+}
+
 // max(x, 0), for scalars and vectors alike (the kernels are templates on the number type).
 HWY_INLINE double positive_part(double x) { return x > 0 ? x : 0.0; }
 template <class Real>

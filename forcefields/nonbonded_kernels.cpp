@@ -109,10 +109,9 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
               if constexpr (kEnergies) e_lj += keep(inside, v);
             }
             if constexpr (kCoulomb) {
-              V vc, gc;
-              rf_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
+              V vc;
+              rf_add_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, g);
               if constexpr (kEnergies) e_coulomb += keep(inside, vc);
-              g += gc;
             }
           }
           g = keep(inside, g);

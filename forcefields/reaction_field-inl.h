@@ -17,11 +17,35 @@ HWY_BEFORE_NAMESPACE();
 namespace vimd {
 namespace HWY_NAMESPACE {
 
+// The unswitched pair potential and force factor −φ'/r per unit qq.
+template <class T>
+inline T rf_unit_potential(const ReactionField& rf, T rinv, T r2) {
+  return rinv + rf.k_rf * r2 - rf.c_rf;
+}
+template <class T>
+inline T rf_unit_force(const ReactionField& rf, T rinv) {
+  return rinv * rinv * rinv - 2.0 * rf.k_rf;
+}
+
 template <CoulombModifier C, class T>
 inline void rf_energy_force(const ReactionField& rf, T qq, T rinv, T r2, T& v, T& g) {
-  v = qq * (rinv + rf.k_rf * r2 - rf.c_rf);
-  g = qq * (rinv * rinv * rinv - 2.0 * rf.k_rf);
+  v = qq * rf_unit_potential(rf, rinv, r2);
+  g = qq * rf_unit_force(rf, rinv);
   if constexpr (C == CoulombModifier::potential_switch) apply_switch_energy_force(rf.sw, r2 * rinv, rinv, v, g);
+}
+
+// The same, its force factor added to g (v set): unswitched, g + qq·(r⁻³ − 2k_rf) is one explicit
+// multiply-add, so the force's rounding is the same whether or not the caller also uses v.
+template <CoulombModifier C, class T>
+inline void rf_add_energy_force(const ReactionField& rf, T qq, T rinv, T r2, T& v, T& g) {
+  if constexpr (C == CoulombModifier::potential_switch) {
+    T gc;
+    rf_energy_force<C>(rf, qq, rinv, r2, v, gc);
+    g += gc;
+  } else {
+    v = qq * rf_unit_potential(rf, rinv, r2);
+    g = mul_add(qq, rf_unit_force(rf, rinv), g);
+  }
 }
 
 template <CoulombModifier C, class T>
@@ -30,7 +54,7 @@ inline void rf_hessian(const ReactionField& rf, T qq, T rinv, T r2, T& a, T& b) 
   a = qq * (2.0 * rf.k_rf - rinv3);
   b = 3.0 * qq * rinv3 * rinv * rinv;
   if constexpr (C == CoulombModifier::potential_switch)
-    apply_switch_hessian(rf.sw, qq * (rinv + rf.k_rf * r2 - rf.c_rf), r2 * rinv, rinv, a, b);
+    apply_switch_hessian(rf.sw, qq * rf_unit_potential(rf, rinv, r2), r2 * rinv, rinv, a, b);
 }
 
 // Excluded pair inside the cut-off: φ = qq (k_rf r² − c_rf), times S when switched (scalar code:

@@ -131,6 +131,8 @@ void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const 
   Coords forces_only = Coords::Zero(3, q.cols());
   term.add_forces(q, forces_only, {});
   EXPECT_LT(relative_difference(forces_only, ref.f), 1e-12) << what << ", forces only";
+  // Bit for bit: whether the energies are due must not change the trajectory.
+  EXPECT_EQ((forces_only - got.f).cwiseAbs().maxCoeff(), 0.0) << what << ", forces only";
 }
 
 // precision = "mixed": energies and forces from the single-precision kernel, to float accuracy
@@ -149,6 +151,7 @@ void expect_mixed_matches_brute_force(NonbondedPairTerm& term, const System& s, 
   Coords forces_only = Coords::Zero(3, q.cols());
   term.add_forces(q, forces_only, {});
   EXPECT_LT(relative_difference(forces_only, ref.f), 1e-5) << what << ", forces only";
+  EXPECT_EQ((forces_only - got.f).cwiseAbs().maxCoeff(), 0.0) << what << ", forces only";
   EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what;
 }
 
