@@ -1,5 +1,7 @@
 #include "integrators/variational.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -16,6 +18,7 @@ namespace vimd {
 namespace {
 
 constexpr int kMaxAndersonDepth = 8;
+constexpr int kMaxPredictorHistory = 3;
 // Relaxation control of the step iteration (see step()).
 constexpr double kNoProgress = 0.95;
 constexpr double kMinRelaxation = 1.0 / 1024;
@@ -79,11 +82,17 @@ struct VariationalIntegrator::Work {
   ProjectedPoint proj_plus, proj_minus, proj_q;
   Coords q, v, p_plus;          // the unknowns
   Coords qbar, pbar;            // the cotangent state
-  Coords p_offset;              // p̄ − Π(M·V⁺) at the last accepted point, Π tangential at ∂⁺
   Coords q_standard, v_standard;  // this step's standard-layer prediction
-  Coords q_offset, v_offset;      // last step's solution minus its standard-layer prediction
+  // Per accepted point, newest first: solution minus standard-layer prediction (q, v), and
+  // p̄ − Π(M·V⁺) with Π tangential at ∂⁺ (p); and this step's extrapolation of them.
+  struct Offsets {
+    Coords q, v, p;
+  };
+  std::array<Offsets, kMaxPredictorHistory> offsets;
+  int offsets_recorded = 0;
+  Offsets predicted;
   Coords rho_q, rho_v, minus_q, minus_v, p_hat;
-  Coords dq, dv, dp, trial, v_trial, start_direction;
+  Coords dq, dv, dp, trial, v_trial, start_direction, v_previous;
   Eigen::VectorXd nu;
   // Anderson history: per atom (q/h, v, M⁻¹p) and the fixed-point residual in the same scaling.
   std::vector<Eigen::Matrix<double, 9, Eigen::Dynamic>> history_x, history_f;
@@ -103,9 +112,14 @@ struct VariationalIntegrator::Work {
     // The solve needs forces alone; the state (a segment start) gets its energies when they are due.
     dynamics.set_energies(ConstrainedDynamics::Energies::at_due_starts);
     const int n = static_cast<int>(p.inverse_mass.size());
-    for (Coords* c : {&q, &v, &p_plus, &qbar, &pbar, &p_offset, &rho_q, &rho_v, &minus_q, &minus_v, &p_hat, &dq, &dv,
-                      &dp, &trial, &v_trial, &start_direction, &q_standard, &v_standard, &q_offset, &v_offset})
+    for (Coords* c : {&q, &v, &p_plus, &qbar, &pbar, &rho_q, &rho_v, &minus_q, &minus_v, &p_hat, &dq, &dv, &dp, &trial,
+                      &v_trial, &start_direction, &v_previous, &q_standard, &v_standard})
       c->setZero(3, n);
+    auto zero = [n](Offsets& o) {
+      for (Coords* c : {&o.q, &o.v, &o.p}) c->setZero(3, n);
+    };
+    for (Offsets& o : offsets) zero(o);
+    zero(predicted);
     history_x.assign(s.anderson_depth > 0 ? s.anderson_depth + 1 : 0, Eigen::Matrix<double, 9, Eigen::Dynamic>(9, n));
     history_f = history_x;
   }
@@ -114,6 +128,8 @@ struct VariationalIntegrator::Work {
 VariationalIntegrator::VariationalIntegrator(VariationalSettings settings) : settings_(std::move(settings)) {
   if (settings_.anderson_depth < 0 || settings_.anderson_depth > kMaxAndersonDepth)
     throw std::invalid_argument("Anderson depth must be between 0 and " + std::to_string(kMaxAndersonDepth));
+  if (settings_.predictor_history < 0 || settings_.predictor_history > kMaxPredictorHistory)
+    throw std::invalid_argument("predictor history must be between 0 and " + std::to_string(kMaxPredictorHistory));
 }
 VariationalIntegrator::VariationalIntegrator(const IntegratorConfig& config)
     : VariationalIntegrator(VariationalSettings::from_config(config)) {}
@@ -132,9 +148,13 @@ Carried VariationalIntegrator::carried_state() const {
   const Work& w = *work_;
   c.put("qbar", w.qbar);
   c.put("pbar", w.pbar);
-  c.put("p_offset", w.p_offset);
-  c.put("q_offset", w.q_offset);
-  c.put("v_offset", w.v_offset);
+  for (int k = 0; k < w.offsets_recorded; ++k) {
+    const std::string age = std::to_string(k);
+    c.put("q_offset_" + age, w.offsets[k].q);
+    c.put("v_offset_" + age, w.offsets[k].v);
+    c.put("p_offset_" + age, w.offsets[k].p);
+  }
+  c.put("offsets_recorded", w.offsets_recorded);
   c.put("plus_segment_v", w.seg_plus.v);
   c.put("contraction", w.contraction);
   return c;
@@ -150,9 +170,16 @@ void VariationalIntegrator::restore(Problem& problem, const State& state, const 
   };
   take("qbar", w.qbar);
   take("pbar", w.pbar);
-  take("p_offset", w.p_offset);
-  take("q_offset", w.q_offset);
-  take("v_offset", w.v_offset);
+  const double recorded = c.number("offsets_recorded");
+  if (!(recorded >= 0 && recorded <= kMaxPredictorHistory))
+    throw std::invalid_argument("VariationalIntegrator::restore: offsets_recorded");
+  w.offsets_recorded = static_cast<int>(recorded);
+  for (int k = 0; k < w.offsets_recorded; ++k) {
+    const std::string age = std::to_string(k);
+    take(("q_offset_" + age).c_str(), w.offsets[k].q);
+    take(("v_offset_" + age).c_str(), w.offsets[k].v);
+    take(("p_offset_" + age).c_str(), w.offsets[k].p);
+  }
   take("plus_segment_v", w.seg_plus.v);
   w.contraction = c.number("contraction");
   w.q = state.q;
@@ -218,13 +245,43 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
   w.euclid_q.apply(w.rho_q);
 }
 
-// p̄ − Π(M V⁺) at the accepted point, both tangent at q̄ = ∂⁺(w). Its normal part would be
-// rotated into the tangent space at the next ∂⁺ and spoil the prediction, hence Π.
-void VariationalIntegrator::record_momentum_offset(Work& w) const {
+// The momentum offset is p̄ − Π(M V⁺) at the accepted point, both tangent at q̄ = ∂⁺(w). Its
+// normal part would be rotated into the tangent space at the next ∂⁺ and spoil the prediction, hence Π.
+void VariationalIntegrator::record_offsets(Work& w, bool with_state) const {
+  std::rotate(w.offsets.rbegin(), w.offsets.rbegin() + 1, w.offsets.rend());  // swaps storage, copies nothing
+  w.offsets_recorded = std::min(w.offsets_recorded + 1, kMaxPredictorHistory);
+  Work::Offsets& newest = w.offsets[0];
   const Eigen::VectorXd& mass = w.problem->system.mass;
-  for_each_atom(static_cast<int>(w.q.cols()), [&](int i) { w.p_offset.col(i) = mass[i] * w.seg_plus.v.col(i); });
-  w.euclid_plus.apply(w.p_offset);
-  parallel_assign(w.p_offset, w.pbar - w.p_offset);
+  for_each_atom(static_cast<int>(w.q.cols()), [&](int i) { newest.p.col(i) = mass[i] * w.seg_plus.v.col(i); });
+  w.euclid_plus.apply(newest.p);
+  parallel_assign(newest.p, w.pbar - newest.p);
+  if (with_state) {
+    parallel_assign(newest.q, w.q - w.q_standard);
+    parallel_assign(newest.v, w.v - w.v_standard);
+  } else {
+    newest.q.setZero();
+    newest.v.setZero();
+  }
+}
+
+// The offsets vary smoothly from step to step (as fast as the fastest motion, not the error
+// size): a polynomial through the last ones predicts the next far better than the last alone.
+void VariationalIntegrator::extrapolate_offsets(Work& w) const {
+  static constexpr double kWeights[kMaxPredictorHistory][kMaxPredictorHistory] = {
+      {1, 0, 0}, {2, -1, 0}, {3, -3, 1}};
+  const int used = std::min(w.offsets_recorded, settings_.predictor_history);
+  Work::Offsets& out = w.predicted;
+  if (used == 0) {
+    for (Coords* c : {&out.q, &out.v, &out.p}) c->setZero();
+    return;
+  }
+  const double* c = kWeights[used - 1];
+  const auto& o = w.offsets;
+  for_each_atom(static_cast<int>(w.q.cols()), [&](int i) {
+    out.q.col(i) = c[0] * o[0].q.col(i) + c[1] * o[1].q.col(i) + c[2] * o[2].q.col(i);
+    out.v.col(i) = c[0] * o[0].v.col(i) + c[1] * o[1].v.col(i) + c[2] * o[2].v.col(i);
+    out.p.col(i) = c[0] * o[0].p.col(i) + c[1] * o[1].p.col(i) + c[2] * o[2].p.col(i);
+  });
 }
 
 void VariationalIntegrator::write_state(Work& w, State& state) const {
@@ -282,7 +339,7 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   }
   w.qbar = w.proj_plus.x;
   w.pbar = w.p_plus;
-  record_momentum_offset(w);
+  record_offsets(w, /*with_state=*/false);
   write_state(w, state);
 }
 
@@ -303,16 +360,34 @@ void VariationalIntegrator::predict(Work& w, const State& state, long step) {
   w.mass_q.apply(w.v);
   parallel_assign(w.q_standard, w.q);
   parallel_assign(w.v_standard, w.v);
-  if (!settings_.predictor_offsets) return;
-  // The solution differs from the standard step by a smooth O(h^{p+1}) amount: add last step's.
+  // The solution differs from the standard step by a smooth O(h^{p+1}) amount: add its extrapolation.
+  extrapolate_offsets(w);
+  if (w.offsets_recorded == 0 || settings_.predictor_history == 0) return;
   if (settings_.alpha_minus != 0) {
-    parallel_assign(w.trial, w.q + w.q_offset);
+    parallel_assign(w.trial, w.q + w.predicted.q);
     w.projection.project(w.trial, w.proj_q, step);
     parallel_assign(w.q, w.proj_q.x);
     w.mass_q.set_point(w.q);
   }
-  parallel_assign(w.v, w.v + w.v_offset);
+  parallel_assign(w.v, w.v + w.predicted.v);
   w.mass_q.apply(w.v);
+}
+
+// With α⁻ = 0 the final update changes v alone (q = q̄), by Δv = v − v_previous, small as the
+// tolerance over the contraction factor. Its ∂⁺ segment to first order, with the solver's own
+// approximate Jacobian (∂Q⁺/∂v ≈ τ⁺, ∂V⁺/∂v ≈ 1): Q⁺ += τ⁺Δv, V⁺ += Δv, then x⁺ = P(Q⁺). The
+// neglected terms, O((τ⁺)²(ω² + |∂A/∂v|))·τ⁺|Δv|, are a few per cent of the τ⁺·tolerance that
+// the solve leaves in x⁺ anyway on water at 2 fs; the forward pass it replaces costs s − 1 force
+// evaluations. The stages stay those of the last evaluated point: only the first one (at q, the
+// same) is read again.
+void VariationalIntegrator::advance_plus_segment_linearly(Work& w, long step) {
+  const double tau_plus = settings_.dt * settings_.alpha_plus;
+  for_each_atom(static_cast<int>(w.q.cols()), [&](int i) {
+    const Vec3 dv = w.v.col(i) - w.v_previous.col(i);
+    w.seg_plus.q.col(i) += tau_plus * dv;
+    w.seg_plus.v.col(i) += dv;
+  });
+  w.projection.project(w.seg_plus.q, w.proj_plus, step);
 }
 
 void VariationalIntegrator::update(Work& w, int iteration, long step, double relaxation, bool plain) {
@@ -439,10 +514,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     // With α⁻ = 0, q = q̄ throughout the step: the first stage's forces are computed once.
     forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 && it > 1 ? &w.seg_plus.stages[0].forces : nullptr);
     if (it == 1) {
-      for_each_atom(n, [&](int i) {
-        w.p_plus.col(i) = mass[i] * w.seg_plus.v.col(i);
-        if (settings_.predictor_offsets) w.p_plus.col(i) += w.p_offset.col(i);
-      });
+      for_each_atom(n, [&](int i) { w.p_plus.col(i) = mass[i] * w.seg_plus.v.col(i) + w.predicted.p.col(i); });
     }
     w.euclid_plus.set_point(w.proj_plus.x);
     w.euclid_plus.apply(w.p_plus);
@@ -483,10 +555,16 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     if (settings_.predicted_stop && it > 1 && relaxation == 1 &&
         std::max(contraction, w.contraction) * err <= tolerance) {
       // The update lands within contraction·err ≤ tolerance of the solution: take it, and spend
-      // only the forward pass that the new point's ∂⁺ needs (∂⁻ is not), no residual to confirm it.
-      update(w, it, step, 1.0, /*plain=*/true);
-      forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 ? &w.seg_plus.stages[0].forces : nullptr,
-                       /*plus_only=*/true);
+      // only what the new point's ∂⁺ needs (∂⁻ is not), no residual to confirm it.
+      if (settings_.alpha_minus == 0 && settings_.linear_final_segment) {
+        parallel_assign(w.v_previous, w.v);
+        update(w, it, step, 1.0, /*plain=*/true);
+        advance_plus_segment_linearly(w, step);
+      } else {
+        update(w, it, step, 1.0, /*plain=*/true);
+        forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 ? &w.seg_plus.stages[0].forces : nullptr,
+                         /*plus_only=*/true);
+      }
       w.euclid_plus.set_point(w.proj_plus.x);
       err *= std::max(contraction, w.contraction);
       finished_by_update = true;
@@ -503,9 +581,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   else
     parallel_assign(w.pbar, w.p_plus + w.dp);
   w.euclid_plus.apply(w.pbar);
-  record_momentum_offset(w);
-  parallel_assign(w.q_offset, w.q - w.q_standard);
-  parallel_assign(w.v_offset, w.v - w.v_standard);
+  record_offsets(w, /*with_state=*/true);
   write_state(w, state);
 
   StepReport report;

@@ -26,12 +26,16 @@ struct VariationalSettings {
   int max_iterations = 50;
   int anderson_depth = 0;  // 0: plain fixed-point iteration; m > 0: Anderson mixing over m differences
   // Predictor: the standard layer's step Φ_h(w_k) for (q, v) and Π(M·V⁺) for p⁺, each corrected
-  // by the previous step's difference between solution and prediction (else uncorrected).
-  bool predictor_offsets = true;
+  // by its difference between solution and prediction, extrapolated from the last
+  // `predictor_history` steps by a polynomial (0: uncorrected, 1: last step's, 2: linear, 3: quadratic).
+  int predictor_history = 3;
   // Also stop when the update about to be applied is predicted to land within the tolerance
   // (contraction factor × ‖δ‖, the factor being the largest seen in this and the last step); the
   // step then ends with a forward pass at the updated point instead of another residual.
   bool predicted_stop = true;
+  // With α⁻ = 0, a predicted stop advances the ∂⁺ segment to the updated point to first order
+  // instead of by a forward pass (see advance_plus_segment_linearly).
+  bool linear_final_segment = true;
 
   // From [integrator]; InputError for a bad bias or projection. `file` names the config in errors.
   static VariationalSettings from_config(const IntegratorConfig& config, const std::string& file = "[integrator]");
@@ -75,8 +79,12 @@ class VariationalIntegrator : public Integrator {
   void predict(Work& w, const State& state, long step);
   // Applies (δq, δv, δp) scaled by `relaxation` (Anderson-mixed unless `plain`) and returns to TQ.
   void update(Work& w, int iteration, long step, double relaxation, bool plain = false);
+  void advance_plus_segment_linearly(Work& w, long step);
   void write_state(Work& w, State& state) const;
-  void record_momentum_offset(Work& w) const;
+  // Pushes the accepted point's offsets (solution minus prediction) into the predictor's history;
+  // with_state: the position and velocity offsets too (not at init, which has no prediction).
+  void record_offsets(Work& w, bool with_state) const;
+  void extrapolate_offsets(Work& w) const;
 
   VariationalSettings settings_;
   std::unique_ptr<Work> work_;
