@@ -62,6 +62,11 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
   return s;
 }
 
+int VariationalSettings::predictor_history_used() const {
+  if (predictor_history != kAutomaticHistory) return predictor_history;
+  return alpha_minus == 0 ? kMaxPredictorHistory : 1;
+}
+
 double default_solver_tolerance(double alpha_minus) {
   // Calibrated by validation/bench_vi (901 SPC/E waters, 2 fs, LJ potential-switch + reaction field,
   // rk4): with bias [0, 1], 1e-6 nm/ps matches 1e-8 in energy fluctuation and drift within 2%
@@ -128,8 +133,10 @@ struct VariationalIntegrator::Work {
 VariationalIntegrator::VariationalIntegrator(VariationalSettings settings) : settings_(std::move(settings)) {
   if (settings_.anderson_depth < 0 || settings_.anderson_depth > kMaxAndersonDepth)
     throw std::invalid_argument("Anderson depth must be between 0 and " + std::to_string(kMaxAndersonDepth));
-  if (settings_.predictor_history < 0 || settings_.predictor_history > kMaxPredictorHistory)
-    throw std::invalid_argument("predictor history must be between 0 and " + std::to_string(kMaxPredictorHistory));
+  if (settings_.predictor_history < VariationalSettings::kAutomaticHistory ||
+      settings_.predictor_history > kMaxPredictorHistory)
+    throw std::invalid_argument("predictor history must be between 0 and " + std::to_string(kMaxPredictorHistory) +
+                                ", or automatic");
 }
 VariationalIntegrator::VariationalIntegrator(const IntegratorConfig& config)
     : VariationalIntegrator(VariationalSettings::from_config(config)) {}
@@ -269,7 +276,7 @@ void VariationalIntegrator::record_offsets(Work& w, bool with_state) const {
 void VariationalIntegrator::extrapolate_offsets(Work& w) const {
   static constexpr double kWeights[kMaxPredictorHistory][kMaxPredictorHistory] = {
       {1, 0, 0}, {2, -1, 0}, {3, -3, 1}};
-  const int used = std::min(w.offsets_recorded, settings_.predictor_history);
+  const int used = std::min(w.offsets_recorded, settings_.predictor_history_used());
   Work::Offsets& out = w.predicted;
   if (used == 0) {
     for (Coords* c : {&out.q, &out.v, &out.p}) c->setZero();
@@ -362,7 +369,7 @@ void VariationalIntegrator::predict(Work& w, const State& state, long step) {
   parallel_assign(w.v_standard, w.v);
   // The solution differs from the standard step by a smooth O(h^{p+1}) amount: add its extrapolation.
   extrapolate_offsets(w);
-  if (w.offsets_recorded == 0 || settings_.predictor_history == 0) return;
+  if (w.offsets_recorded == 0 || settings_.predictor_history_used() == 0) return;
   if (settings_.alpha_minus != 0) {
     parallel_assign(w.trial, w.q + w.predicted.q);
     w.projection.project(w.trial, w.proj_q, step);
