@@ -271,8 +271,10 @@ void VariationalIntegrator::record_offsets(Work& w, bool with_state) const {
   }
 }
 
-// The offsets vary smoothly from step to step (as fast as the fastest motion, not the error
-// size): a polynomial through the last ones predicts the next far better than the last alone.
+// A polynomial through the last offsets predicts the next one a little better than the last alone:
+// they change by most of their size from step to step (at the pace of the fastest motion), but on
+// water900 at [0,1] the first residual still falls by ~15%, enough to spare most steps a third
+// iteration (see VariationalSettings::predictor_history for where it does not pay).
 void VariationalIntegrator::extrapolate_offsets(Work& w) const {
   static constexpr double kWeights[kMaxPredictorHistory][kMaxPredictorHistory] = {
       {1, 0, 0}, {2, -1, 0}, {3, -3, 1}};
