@@ -287,9 +287,14 @@ void VariationalIntegrator::extrapolate_offsets(Work& w) const {
   const double* c = kWeights[used - 1];
   const auto& o = w.offsets;
   for_each_atom(static_cast<int>(w.q.cols()), [&](int i) {
-    out.q.col(i) = c[0] * o[0].q.col(i) + c[1] * o[1].q.col(i) + c[2] * o[2].q.col(i);
-    out.v.col(i) = c[0] * o[0].v.col(i) + c[1] * o[1].v.col(i) + c[2] * o[2].v.col(i);
-    out.p.col(i) = c[0] * o[0].p.col(i) + c[1] * o[1].p.col(i) + c[2] * o[2].p.col(i);
+    out.q.col(i) = c[0] * o[0].q.col(i);
+    out.v.col(i) = c[0] * o[0].v.col(i);
+    out.p.col(i) = c[0] * o[0].p.col(i);
+    for (int k = 1; k < used; ++k) {
+      out.q.col(i) += c[k] * o[k].q.col(i);
+      out.v.col(i) += c[k] * o[k].v.col(i);
+      out.p.col(i) += c[k] * o[k].p.col(i);
+    }
   });
 }
 

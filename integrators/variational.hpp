@@ -36,7 +36,8 @@ struct VariationalSettings {
   int predictor_history_used() const;
   // Also stop when the update about to be applied is predicted to land within the tolerance
   // (contraction factor × ‖δ‖, the factor being the largest seen in this and the last step); the
-  // step then ends with a forward pass at the updated point instead of another residual.
+  // step then ends with the ∂⁺ segment at the updated point (a forward pass, or with
+  // linear_final_segment its first-order advance) instead of another residual.
   bool predicted_stop = true;
   // With α⁻ = 0, a predicted stop advances the ∂⁺ segment to the updated point to first order
   // instead of by a forward pass (see advance_plus_segment_linearly).
