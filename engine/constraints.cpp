@@ -282,6 +282,34 @@ struct Constraints::Layout {
     }
   }
 
+  // Lane k of a velocity-projection batch (project_triangle_batch) for a rigid triangle: its three
+  // bonds, rates and weight factors, in cluster order.
+  void projection_prepare(const Cluster& cl, const Coords& q, const Coords& v, const double* w, double* in,
+                          int k) const {
+    const int b = cl.begin;
+    for (int a = 0; a < 3; ++a) {
+      const Vec3 r = bond(q, b + a);
+      for (int d = 0; d < 3; ++d) in[(kR0x + 3 * a + d) * kSettleBatch + k] = r[d];
+      in[(kRate0 + a) * kSettleBatch + k] = r.dot(v.col(atom_i[b + a]) - v.col(atom_j[b + a]));
+    }
+    const int factor_field[3][3] = {{kC00, kC01, kC02}, {kC01, kC11, kC12}, {kC02, kC12, kC22}};
+    for (int a = 0; a < 3; ++a)
+      for (int c = a; c < 3; ++c) in[factor_field[a][c] * kSettleBatch + k] = coefficient(b + a, b + c, w);
+  }
+  // v ← v − W Gᵀ x with lane k's multipliers x (written to mu) and bonds.
+  void projection_finish(const Cluster& cl, const double* in, const double* x, int k, Coords& v, const double* w,
+                         double* mu) const {
+    const int b = cl.begin;
+    for (int a = 0; a < 3; ++a) {
+      const double xa = x[a * kSettleBatch + k];
+      const Vec3 r(in[(kR0x + 3 * a) * kSettleBatch + k], in[(kR0y + 3 * a) * kSettleBatch + k],
+                   in[(kR0z + 3 * a) * kSettleBatch + k]);
+      v.col(atom_i[b + a]) -= (w[atom_i[b + a]] * xa) * r;
+      v.col(atom_j[b + a]) += (w[atom_j[b + a]] * xa) * r;
+      mu[a] = xa;
+    }
+  }
+
   // v ← v − W Gᵀ S⁻¹ G v for a cluster of at most three constraints, on the stack.
   void project_small_velocities(const Cluster& cl, const Coords& q, Coords& v, const double* w, double* mu) const {
     const int b = cl.begin, m = cl.size();
@@ -951,28 +979,51 @@ void Constraints::project_velocities(const Coords& q, Coords& v, const Eigen::Ve
   Workspace& ws = *work_;
   Factorization::Impl& f = *ws.factorization.impl_;
   const int nc = static_cast<int>(L.clusters.size());
-#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
-  for (int c = 0; c < nc; ++c) {
-    const auto& cl = L.clusters[c];
-    const int b = cl.begin, m = cl.size();
-    double* mu = ws.delta.data() + b;
-    if (cl.kind == Kind::Small) {
-      L.project_small_velocities(cl, q, v, wp, mu);
-      ws.singular[c] = false;
-      continue;
+  // Rigid triangles in batches through the SIMD kernel; every other cluster one by one.
+  const ProjectionKernel kernel = simd::triangle_projection_kernel();
+  const int n_triangles = static_cast<int>(L.triangle_clusters.size());
+  const int n_batches = (n_triangles + kSettleBatch - 1) / kSettleBatch;
+#pragma omp parallel if (size() > kParallelMin)
+  {
+#pragma omp for schedule(static) nowait
+    for (int batch = 0; batch < n_batches; ++batch) {
+      double in[kProjectionInFields * kSettleBatch], x[3 * kSettleBatch];
+      const int first = batch * kSettleBatch, count = std::min(n_triangles - first, kSettleBatch);
+      for (int k = 0; k < count; ++k) L.projection_prepare(L.clusters[L.triangle_clusters[first + k]], q, v, wp, in, k);
+      // The lanes past `count` repeat the last molecule (a full vector is computed, then ignored).
+      for (int f = 0; f < kProjectionInFields; ++f)
+        std::fill(in + f * kSettleBatch + count, in + (f + 1) * kSettleBatch, in[f * kSettleBatch + count - 1]);
+      kernel(count, in, x);
+      for (int k = 0; k < count; ++k) {
+        const int c = L.triangle_clusters[first + k];
+        L.projection_finish(L.clusters[c], in, x, k, v, wp, ws.delta.data() + L.clusters[c].begin);
+        ws.singular[c] = false;
+      }
     }
-    for (int a = 0; a < m; ++a) {
-      const int i = L.atom_i[b + a], j = L.atom_j[b + a];
-      ws.r_cur.col(b + a) = L.bond(q, b + a);
-      mu[a] = ws.r_cur.col(b + a).dot(v.col(i) - v.col(j));
-    }
-    ws.singular[c] = !f.factor(cl, ws.r_cur, ws.r_cur, wp, true);
-    if (ws.singular[c]) continue;
-    f.solve(cl, mu);
-    for (int a = 0; a < m; ++a) {
-      const int i = L.atom_i[b + a], j = L.atom_j[b + a];
-      v.col(i) -= (wp[i] * mu[a]) * ws.r_cur.col(b + a);
-      v.col(j) += (wp[j] * mu[a]) * ws.r_cur.col(b + a);
+#pragma omp for schedule(guided)
+    for (int c = 0; c < nc; ++c) {
+      const auto& cl = L.clusters[c];
+      if (cl.kind == Kind::Small && L.triangles[cl.slot].valid) continue;  // done above
+      const int b = cl.begin, m = cl.size();
+      double* mu = ws.delta.data() + b;
+      if (cl.kind == Kind::Small) {
+        L.project_small_velocities(cl, q, v, wp, mu);
+        ws.singular[c] = false;
+        continue;
+      }
+      for (int a = 0; a < m; ++a) {
+        const int i = L.atom_i[b + a], j = L.atom_j[b + a];
+        ws.r_cur.col(b + a) = L.bond(q, b + a);
+        mu[a] = ws.r_cur.col(b + a).dot(v.col(i) - v.col(j));
+      }
+      ws.singular[c] = !f.factor(cl, ws.r_cur, ws.r_cur, wp, true);
+      if (ws.singular[c]) continue;
+      f.solve(cl, mu);
+      for (int a = 0; a < m; ++a) {
+        const int i = L.atom_i[b + a], j = L.atom_j[b + a];
+        v.col(i) -= (wp[i] * mu[a]) * ws.r_cur.col(b + a);
+        v.col(j) += (wp[j] * mu[a]) * ws.r_cur.col(b + a);
+      }
     }
   }
   for (int c = 0; c < nc; ++c)

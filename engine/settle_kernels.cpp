@@ -71,9 +71,30 @@ void settle_batch(int count, const double* in, double* out) {
   }
 }
 
+// x = S⁻¹ rate by the symmetric 3×3 adjugate: one division per molecule, no pivoting (S is
+// positive definite for a non-degenerate triangle).
+void project_triangle_batch(int count, const double* in, double* out) {
+  const int lanes = V::lanes();
+  auto field = [&](int f, int k) { return simd_load(in + f * kSettleBatch + k); };
+  for (int k = 0; k < count; k += lanes) {
+    const V3 r0{field(kR0x, k), field(kR0y, k), field(kR0z, k)}, r1{field(kR1x, k), field(kR1y, k), field(kR1z, k)},
+        r2{field(kR2x, k), field(kR2y, k), field(kR2z, k)};
+    const V s00 = field(kC00, k) * dot(r0, r0), s11 = field(kC11, k) * dot(r1, r1), s22 = field(kC22, k) * dot(r2, r2);
+    const V s01 = field(kC01, k) * dot(r0, r1), s02 = field(kC02, k) * dot(r0, r2), s12 = field(kC12, k) * dot(r1, r2);
+    const V a00 = s11 * s22 - s12 * s12, a01 = s02 * s12 - s01 * s22, a02 = s01 * s12 - s11 * s02;
+    const V a11 = s00 * s22 - s02 * s02, a12 = s01 * s02 - s00 * s12, a22 = s00 * s11 - s01 * s01;
+    const V inverse_det = 1.0 / (s00 * a00 + s01 * a01 + s02 * a02);
+    const V rate0 = field(kRate0, k), rate1 = field(kRate1, k), rate2 = field(kRate2, k);
+    simd_store(out + k, inverse_det * (a00 * rate0 + a01 * rate1 + a02 * rate2));
+    simd_store(out + kSettleBatch + k, inverse_det * (a01 * rate0 + a11 * rate1 + a12 * rate2));
+    simd_store(out + 2 * kSettleBatch + k, inverse_det * (a02 * rate0 + a12 * rate1 + a22 * rate2));
+  }
+}
+
 }  // namespace
 
 SettleKernel SettleKernelFor() { return settle_batch; }
+ProjectionKernel ProjectionKernelFor() { return project_triangle_batch; }
 
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd
@@ -82,8 +103,10 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 namespace vimd {
 HWY_EXPORT(SettleKernelFor);
+HWY_EXPORT(ProjectionKernelFor);
 namespace simd {
 SettleKernel settle_kernel() { return HWY_DYNAMIC_DISPATCH(SettleKernelFor)(); }
+ProjectionKernel triangle_projection_kernel() { return HWY_DYNAMIC_DISPATCH(ProjectionKernelFor)(); }
 }  // namespace simd
 }  // namespace vimd
 #endif  // HWY_ONCE

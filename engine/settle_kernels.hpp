@@ -14,8 +14,16 @@ enum SettleIn { kB0x, kB0y, kB0z, kC0x, kC0y, kC0z, kB1x, kB1y, kB1z, kC1x, kC1y
 enum SettleOut { kAx, kAy, kAz, kBx, kBy, kBz, kCx, kCy, kCz, kSettleOutFields };
 using SettleKernel = void (*)(int count, const double* in, double* out);
 
+// The velocity projection of a batch of rigid 3-site molecules (constraints a = 0, 1, 2), in the
+// same layout. In: the bond vectors r_a, the rates r_a·(v_i − v_j) and the symmetric weight factors
+// c_ab of S_ab = c_ab r_a·r_b. Out: the multipliers x = S⁻¹ rate.
+enum ProjectionIn { kR0x, kR0y, kR0z, kR1x, kR1y, kR1z, kR2x, kR2y, kR2z, kRate0, kRate1, kRate2, kC00, kC11, kC22,
+                    kC01, kC02, kC12, kProjectionInFields };
+using ProjectionKernel = void (*)(int count, const double* in, double* out);
+
 namespace simd {
 SettleKernel settle_kernel();
+ProjectionKernel triangle_projection_kernel();
 }  // namespace simd
 
 }  // namespace vimd
