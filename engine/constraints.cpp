@@ -363,7 +363,10 @@ struct Constraints::Factorization::Impl {
   };
 
   std::shared_ptr<const Layout> layout;
-  std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> small;
+  // S⁻¹ of each small cluster in closed form (Eigen's 3×3 cofactor inverse), a third of the cost
+  // of a pivoted LU and its solves; a degenerate (collinear) triangle gives non-finite values as
+  // the LU did.
+  std::vector<Eigen::Matrix3d> small_inverse;
   std::unique_ptr<Dynamic[]> dynamic;  // SparseLU is not movable, so no std::vector
   Coords r_left, r_right;
   bool factorized = false;
@@ -373,7 +376,7 @@ struct Constraints::Factorization::Impl {
     if (layout == l) return;
     layout = l;
     factorized = false;
-    small.assign(l->n_small, Eigen::PartialPivLU<Eigen::Matrix3d>());
+    small_inverse.assign(l->n_small, Eigen::Matrix3d::Identity());
     dynamic = std::make_unique<Dynamic[]>(l->dynamic.size());
     for (const auto& cl : l->clusters) {
       if (cl.kind == Kind::Small) continue;
@@ -401,7 +404,7 @@ struct Constraints::Factorization::Impl {
       Eigen::Matrix3d s = Eigen::Matrix3d::Identity();  // unused rows stay identity
       for (int a = 0; a < m; ++a)
         for (int c = 0; c < m; ++c) s(a, c) = L.coefficient(b + a, b + c, w) * rl.col(b + a).dot(rr.col(b + c));
-      small[cl.slot].compute(s);
+      small_inverse[cl.slot] = s.inverse();
       return true;
     }
     Dynamic& d = dynamic[cl.slot];
@@ -440,7 +443,7 @@ struct Constraints::Factorization::Impl {
     if (cl.kind == Kind::Small) {
       Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
       for (int a = 0; a < m; ++a) rhs[a] = x[a];
-      const Eigen::Vector3d sol = small[cl.slot].solve(rhs);
+      const Eigen::Vector3d sol = small_inverse[cl.slot] * rhs;
       for (int a = 0; a < m; ++a) x[a] = sol[a];
       return;
     }
