@@ -1,6 +1,7 @@
-// SETTLE (Miyamoto & Kollman, J. Comput. Chem. 13, 952 (1992)) for a batch of molecules, once per
-// SIMD target (Highway's foreach_target re-includes this file), one molecule per lane: its square
-// roots and divisions, latency-bound one molecule at a time, overlap across the lanes.
+// SETTLE (Miyamoto & Kollman, J. Comput. Chem. 13, 952 (1992)) and the velocity projection for a
+// batch of molecules, once per SIMD target (Highway's foreach_target re-includes this file), one
+// molecule per lane: their square roots and divisions, latency-bound one molecule at a time,
+// overlap across the lanes.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "engine/settle_kernels.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep

@@ -1,6 +1,7 @@
 #pragma once
-// SETTLE's rotation (engine/constraints.cpp) for a batch of rigid 3-site molecules at once, in
-// vectors of the chosen SIMD target (settle_kernels.cpp; simd::use_target chooses for all kernels).
+// SETTLE's rotation and the velocity projection (engine/constraints.cpp) for a batch of rigid 3-site
+// molecules at once, in vectors of the chosen SIMD target (settle_kernels.cpp; simd::use_target
+// chooses for all kernels).
 namespace vimd {
 
 // Structure of arrays: field f of molecule k at [f * kSettleBatch + k].
