@@ -38,6 +38,13 @@ enum class Kind { Small, Dense, Sparse };
 // error is a few ulp of d, i.e. 1e-16, far below any usable tolerance.
 inline double relative_deviation(double r2, double d) { return std::abs(std::sqrt(r2) - d) / d; }
 
+// The lanes of a batch past `count` repeat the last molecule: the kernel computes full vectors and
+// the extra lanes are ignored.
+inline void pad_batch(double* in, int n_fields, int count) {
+  for (int f = 0; f < n_fields; ++f)
+    std::fill(in + f * kSettleBatch + count, in + (f + 1) * kSettleBatch, in[f * kSettleBatch + count - 1]);
+}
+
 // r² inside [(d(1 − tol))², (d(1 + tol))²] ⇔ relative deviation ≤ tol (up to rounding): the
 // iterations test this, without a square root or division, and compute the exact deviation only
 // once every bond of a cluster passes it.
@@ -121,6 +128,11 @@ struct Constraints::Layout {
   std::vector<int> triangle_clusters;  // the clusters with a valid triangle, in order
 
   Vec3 bond(const Coords& q, int p) const { return box.minimum_image(q.col(atom_i[p]) - q.col(atom_j[p])); }
+  // x ← x − s W Gᵀ_p for constraint p with bond vector r: its atoms move by ∓ s w along r.
+  void move_along_bond(int p, const Vec3& r, double s, const double* w, Coords& x) const {
+    x.col(atom_i[p]) -= (w[atom_i[p]] * s) * r;
+    x.col(atom_j[p]) += (w[atom_j[p]] * s) * r;
+  }
   // Entry factor of S = G W Gᵀ for positions p, r (p == r gives w_i + w_j).
   double coefficient(int p, int r, const double* w) const {
     double c = 0;
@@ -274,8 +286,7 @@ struct Constraints::Layout {
         for (int c = 0; c < m; ++c) J(a, c) = coef(a, c) * r[a].dot(r_ref[c]);
       const Eigen::Vector3d delta = -(J.inverse() * g);
       for (int a = 0; a < m; ++a) {
-        q.col(atom_i[b + a]) += (w[atom_i[b + a]] * delta[a]) * r_ref[a];
-        q.col(atom_j[b + a]) -= (w[atom_j[b + a]] * delta[a]) * r_ref[a];
+        move_along_bond(b + a, r_ref[a], -delta[a], w, q);
         lambda[a] += delta[a];
       }
       ++out.iterations;
@@ -304,8 +315,7 @@ struct Constraints::Layout {
       const double xa = x[a * kSettleBatch + k];
       const Vec3 r(in[(kR0x + 3 * a) * kSettleBatch + k], in[(kR0y + 3 * a) * kSettleBatch + k],
                    in[(kR0z + 3 * a) * kSettleBatch + k]);
-      v.col(atom_i[b + a]) -= (w[atom_i[b + a]] * xa) * r;
-      v.col(atom_j[b + a]) += (w[atom_j[b + a]] * xa) * r;
+      move_along_bond(b + a, r, xa, w, v);
       mu[a] = xa;
     }
   }
@@ -324,8 +334,7 @@ struct Constraints::Layout {
       for (int c = 0; c < m; ++c) S(a, c) = coefficient(b + a, b + c, w) * r[a].dot(r[c]);
     const Eigen::Vector3d x = S.inverse() * rate;
     for (int a = 0; a < m; ++a) {
-      v.col(atom_i[b + a]) -= (w[atom_i[b + a]] * x[a]) * r[a];
-      v.col(atom_j[b + a]) += (w[atom_j[b + a]] * x[a]) * r[a];
+      move_along_bond(b + a, r[a], x[a], w, v);
       mu[a] = x[a];
     }
   }
@@ -922,9 +931,7 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
         }
       }
       if (count == 0) continue;
-      // The lanes past `count` repeat the last molecule (a full vector is computed, then ignored).
-      for (int f = 0; f < kSettleInFields; ++f)
-        std::fill(in + f * kSettleBatch + count, in + (f + 1) * kSettleBatch, in[f * kSettleBatch + count - 1]);
+      pad_batch(in, kSettleInFields, count);
       kernel(count, in, result);
       for (int k = 0; k < count; ++k) {
         const auto& cl = L.clusters[pending[k].cluster];
@@ -993,9 +1000,7 @@ void Constraints::project_velocities(const Coords& q, Coords& v, const Eigen::Ve
       double in[kProjectionInFields * kSettleBatch], x[3 * kSettleBatch];
       const int first = batch * kSettleBatch, count = std::min(n_triangles - first, kSettleBatch);
       for (int k = 0; k < count; ++k) L.projection_prepare(L.clusters[L.triangle_clusters[first + k]], q, v, wp, in, k);
-      // The lanes past `count` repeat the last molecule (a full vector is computed, then ignored).
-      for (int f = 0; f < kProjectionInFields; ++f)
-        std::fill(in + f * kSettleBatch + count, in + (f + 1) * kSettleBatch, in[f * kSettleBatch + count - 1]);
+      pad_batch(in, kProjectionInFields, count);
       kernel(count, in, x);
       for (int k = 0; k < count; ++k) {
         const int c = L.triangle_clusters[first + k];
@@ -1022,11 +1027,7 @@ void Constraints::project_velocities(const Coords& q, Coords& v, const Eigen::Ve
       ws.singular[c] = !f.factor(cl, ws.r_cur, ws.r_cur, wp, true);
       if (ws.singular[c]) continue;
       f.solve(cl, mu);
-      for (int a = 0; a < m; ++a) {
-        const int i = L.atom_i[b + a], j = L.atom_j[b + a];
-        v.col(i) -= (wp[i] * mu[a]) * ws.r_cur.col(b + a);
-        v.col(j) += (wp[j] * mu[a]) * ws.r_cur.col(b + a);
-      }
+      for (int a = 0; a < m; ++a) L.move_along_bond(b + a, ws.r_cur.col(b + a), mu[a], wp, v);
     }
   }
   for (int c = 0; c < nc; ++c)
