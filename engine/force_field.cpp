@@ -29,6 +29,7 @@ void ForceField::evaluate(const Coords& q, Forces& out, bool energies) {
   out.potential = 0;
   for (double e : out.terms) out.potential += e;
   ++force_evaluations_;
+  if (single_precision_) ++single_force_evaluations_;
 }
 
 void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
@@ -38,10 +39,22 @@ void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
     t->add_hessian_vector(q, u, out);
   }
   ++hessian_evaluations_;
+  if (single_precision_) ++single_hessian_evaluations_;
 }
 
 void ForceField::fix_pair_set(const Coords* q) {
   for (auto& t : terms_) t->fix_pair_set(q);
+}
+
+void ForceField::set_single_precision(bool on) {
+  for (auto& t : terms_) t->set_single_precision(on);
+  single_precision_ = on && has_single_precision();
+}
+
+bool ForceField::has_single_precision() const {
+  for (const auto& t : terms_)
+    if (t->has_single_precision()) return true;
+  return false;
 }
 
 long ForceField::neighbor_rebuilds() const {

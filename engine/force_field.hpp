@@ -36,6 +36,11 @@ class ForceTerm {
   // cannot make the force jump between evaluations. Where the force is continuous there, nothing
   // changes: the truncated potential is smooth enough, and exact (see ForceField::fix_pair_set).
   virtual void fix_pair_set(const Coords* /*q*/) {}
+  // Whether the term has single-precision kernels, and using them for forces and Hessian–vector
+  // products until called with false: for the first iteration of a solve, whose rounding error the
+  // double-precision iterations after it remove.
+  virtual bool has_single_precision() const { return false; }
+  virtual void set_single_precision(bool /*on*/) {}
   virtual long rebuilds() const { return 0; }
   virtual long prunes() const { return 0; }
   virtual double rebuild_seconds() const { return 0; }
@@ -64,10 +69,16 @@ class ForceField {
   // potential: the solve converges on it, and the continuation would cost energy conservation
   // (on water900, switched LJ + reaction field eps_rf = inf, vi rk4: 10x the RMS energy fluctuation).
   void fix_pair_set(const Coords* q);
+  // Every term with a single-precision path uses it until called with false (ForceTerm::set_single_precision).
+  void set_single_precision(bool on);
+  bool has_single_precision() const;
 
-  // Work counters, for cost reports (force-evaluation equivalents).
+  // Work counters, for cost reports (force-evaluation equivalents), and how many of them some term
+  // computed in single precision.
   long force_evaluations() const { return force_evaluations_; }
   long hessian_evaluations() const { return hessian_evaluations_; }
+  long single_precision_force_evaluations() const { return single_force_evaluations_; }
+  long single_precision_hessian_evaluations() const { return single_hessian_evaluations_; }
   long neighbor_rebuilds() const;
   long neighbor_prunes() const;
   double neighbor_build_seconds() const;
@@ -85,6 +96,26 @@ class ForceField {
   std::vector<std::size_t> name_counts_;  // per term
   long force_evaluations_ = 0;
   long hessian_evaluations_ = 0;
+  bool single_precision_ = false;  // some term is in single precision now
+  long single_force_evaluations_ = 0;
+  long single_hessian_evaluations_ = 0;
+};
+
+// Single-precision pair arithmetic in `field` (where `on`) for the lifetime of the object.
+class SinglePrecisionScope {
+ public:
+  SinglePrecisionScope(ForceField& field, bool on) : field_(field), on_(on) {
+    if (on_) field_.set_single_precision(true);
+  }
+  ~SinglePrecisionScope() {
+    if (on_) field_.set_single_precision(false);
+  }
+  SinglePrecisionScope(const SinglePrecisionScope&) = delete;
+  SinglePrecisionScope& operator=(const SinglePrecisionScope&) = delete;
+
+ private:
+  ForceField& field_;
+  bool on_;
 };
 
 // Fixes the pair set of `field` at q for the lifetime of the object (one variational step).

@@ -398,7 +398,8 @@ void NeighborList::pack_positions(const Coords& q, Real* x, Real* y, Real* z) co
 template void NeighborList::pack_positions(const Coords&, double*, double*, double*) const;
 template void NeighborList::pack_positions(const Coords&, float*, float*, float*) const;
 
-void NeighborList::pack_vectors(const Coords& u, double* x, double* y, double* z) const {
+template <class Real>
+void NeighborList::pack_vectors(const Coords& u, Real* x, Real* y, Real* z) const {
   const int n = n_slots();
 #pragma omp for schedule(static)
   for (int s = 0; s < n; ++s) {
@@ -406,11 +407,13 @@ void NeighborList::pack_vectors(const Coords& u, double* x, double* y, double* z
     if (a < 0) {
       x[s] = y[s] = z[s] = 0;
     } else {
-      x[s] = u(0, a);
-      y[s] = u(1, a);
-      z[s] = u(2, a);
+      x[s] = static_cast<Real>(u(0, a));
+      y[s] = static_cast<Real>(u(1, a));
+      z[s] = static_cast<Real>(u(2, a));
     }
   }
 }
+template void NeighborList::pack_vectors(const Coords&, double*, double*, double*) const;
+template void NeighborList::pack_vectors(const Coords&, float*, float*, float*) const;
 
 }  // namespace vimd

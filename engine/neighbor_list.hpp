@@ -80,7 +80,8 @@ class NeighborList {
   template <class Real>
   void pack_positions(const Coords& q, Real* x, Real* y, Real* z) const;
   // Any per-atom 3-vector (e.g. the direction of a Hessian–vector product) in slot order, unshifted.
-  void pack_vectors(const Coords& u, double* x, double* y, double* z) const;
+  template <class Real>
+  void pack_vectors(const Coords& u, Real* x, Real* y, Real* z) const;
 
   // Entries of i-half h: entries()[half_start()[h] .. half_start()[h + 1]).
   const std::vector<int>& half_start() const { return half_start_; }

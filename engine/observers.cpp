@@ -321,6 +321,10 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
                totals.wall_seconds, 1e3 * totals.wall_seconds / steps, rate, totals.force_evaluations / steps,
                totals.hessian_evaluations / steps, totals.neighbor_rebuilds, totals.neighbor_prunes,
                1e3 * totals.neighbor_build_seconds / steps);
+  if (totals.single_precision_force_evaluations + totals.single_precision_hessian_evaluations > 0)
+    std::fprintf(out_, "                    of which in single precision (solver's first iteration): %.2f and %.2f\n",
+                 totals.single_precision_force_evaluations / steps,
+                 totals.single_precision_hessian_evaluations / steps);
   if (!platform_.empty()) {
     std::fprintf(out_, "  platform         ");
     for (const auto& [key, value] : platform_) std::fprintf(out_, " %s %s;", key.c_str(), value.c_str());
@@ -346,6 +350,10 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
         << "  \"ns_per_day\": " << number(rate) << ",\n"
         << "  \"force_evaluations_per_step\": " << number(totals.force_evaluations / steps) << ",\n"
         << "  \"hessian_evaluations_per_step\": " << number(totals.hessian_evaluations / steps) << ",\n"
+        << "  \"single_precision_force_evaluations_per_step\": "
+        << number(totals.single_precision_force_evaluations / steps) << ",\n"
+        << "  \"single_precision_hessian_evaluations_per_step\": "
+        << number(totals.single_precision_hessian_evaluations / steps) << ",\n"
         << "  \"neighbor_rebuilds\": " << totals.neighbor_rebuilds << ",\n"
         << "  \"neighbor_prunes\": " << totals.neighbor_prunes << ",\n"
         << "  \"neighbor_build_seconds\": " << number(totals.neighbor_build_seconds) << ",\n"

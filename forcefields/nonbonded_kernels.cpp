@@ -143,26 +143,28 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
 }
 
 // Per pair a u_ij + b (d·u_ij) d. Skipped rows contribute exact zeros, so the list's masks and a
-// force pass's inside masks give identical results.
-template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch>
-void hessian_halves(const PairView& d, const double* ux, const double* uy, const double* uz, const std::uint32_t* masks,
-                    int h0, int h1, double* ox, double* oy, double* oz) {
-  const int lanes = SimdDouble::lanes();
+// force pass's inside masks give identical results. Real: as in force_halves.
+template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real>
+void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, const Real* uz,
+                    const std::uint32_t* masks, int h0, int h1, Real* ox, Real* oy, Real* oz) {
+  using V = SimdVec<Real>;
+  using Mask = SimdMaskOf<Real>;
+  const int lanes = V::lanes();
   const unsigned lane_bits = (1u << lanes) - 1;
-  const SimdDouble one = SimdDouble::broadcast(1.0), zero = SimdDouble::zero();
+  const V one = V::broadcast(1.0), zero = V::zero();
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
-    HalfData<double> hi;
+    HalfData<Real> hi;
     load_half(d, h, hi);
     const int ib = h * kH;
-    double uxi[kH], uyi[kH], uzi[kH];
+    Real uxi[kH], uyi[kH], uzi[kH];
     for (int ii = 0; ii < kH; ++ii) {
       uxi[ii] = ux[ib + ii];
       uyi[ii] = uy[ib + ii];
       uzi[ii] = uz[ib + ii];
     }
-    SimdDouble oxi[kH], oyi[kH], ozi[kH];
+    V oxi[kH], oyi[kH], ozi[kH];
     for (int ii = 0; ii < kH; ++ii) oxi[ii] = oyi[ii] = ozi[ii] = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
@@ -170,30 +172,30 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
       const std::uint32_t mask = masks[e];
       for (int js = 0; js < kC; js += lanes) {
         const int jb = entry.j_cluster * kC + js;
-        const SimdDouble xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
+        const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
                          zj = simd_load(d.z + jb) + shift[2];
-        const SimdDouble uxj = simd_load(ux + jb), uyj = simd_load(uy + jb), uzj = simd_load(uz + jb);
-        SimdDouble oxj = zero, oyj = zero, ozj = zero;
+        const V uxj = simd_load(ux + jb), uyj = simd_load(uy + jb), uzj = simd_load(uz + jb);
+        V oxj = zero, oyj = zero, ozj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ++ii) {
           const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const SimdDouble dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
-          const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
-          const SimdMask inside = mask_from_bits<double>(bits) & (r2 < d.cutoff2);
-          const SimdDouble r2s = select(inside, r2, one);
-          const SimdDouble rinv = simd_rsqrt(r2s);
-          const SimdDouble rinv2 = rinv * rinv;
-          SimdDouble a, b;
+          const V dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+          const V r2 = dx * dx + dy * dy + dz * dz;
+          const Mask inside = mask_from_bits<Real>(bits) & (r2 < d.cutoff2);
+          const V r2s = select(inside, r2, one);
+          const V rinv = simd_rsqrt(r2s);
+          const V rinv2 = rinv * rinv;
+          V a, b;
           if constexpr (kSharedSwitch) {
             // The coefficients of U = U_LJ + U_Coulomb unswitched, then of U·S.
-            const SimdDouble r = r2s * rinv, qq = hi.q[ii] * simd_load(d.charge + jb);
-            SimdDouble u, unused;
+            const V r = r2s * rinv, qq = hi.q[ii] * simd_load(d.charge + jb);
+            V u, unused;
             rf_hessian<CoulombModifier::none>(d.rf, qq, rinv, r2s, a, b);
             rf_energy_force<CoulombModifier::none>(d.rf, qq, rinv, r2s, u, unused);
             if (hi.lj[ii]) {
-              const SimdDouble c6 = simd_load(hi.c6[ii] + jb), c12 = simd_load(hi.c12[ii] + jb);
-              SimdDouble a_lj, b_lj, u_lj;
+              const V c6 = simd_load(hi.c6[ii] + jb), c12 = simd_load(hi.c12[ii] + jb);
+              V a_lj, b_lj, u_lj;
               lj_hessian<VdwModifier::none>(d.lj, c6, c12, rinv2, r, a_lj, b_lj);
               lj_energy_force<VdwModifier::none>(d.lj, c6, c12, rinv2, r, u_lj, unused);
               a += a_lj;
@@ -206,7 +208,7 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
             if (hi.lj[ii])
               lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
             if constexpr (kCoulomb) {
-              SimdDouble ac, bc;
+              V ac, bc;
               rf_hessian<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, ac, bc);
               a += ac;
               b += bc;
@@ -214,9 +216,9 @@ void hessian_halves(const PairView& d, const double* ux, const double* uy, const
           }
           a = keep(inside, a);
           b = keep(inside, b);
-          const SimdDouble dux = uxi[ii] - uxj, duy = uyi[ii] - uyj, duz = uzi[ii] - uzj;
-          const SimdDouble bp = b * (dx * dux + dy * duy + dz * duz);
-          const SimdDouble hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
+          const V dux = uxi[ii] - uxj, duy = uyi[ii] - uyj, duz = uzi[ii] - uzj;
+          const V bp = b * (dx * dux + dy * duy + dz * duz);
+          const V hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
           oxi[ii] += hx;
           oyi[ii] += hy;
           ozi[ii] += hz;
@@ -305,19 +307,32 @@ ForceKernelOf<Real> force_kernel_for(VdwModifier m, bool coulomb, CoulombModifie
                   : force_kernel_for<Real, false>(m, coulomb, c, shared_switch);
 }
 
-template <bool kCoulomb, CoulombModifier C>
-HessianKernel hessian_kernel_of(VdwModifier m) {
+template <class Real>
+using HessianKernelOf = void (*)(const PairViewOf<Real>&, const Real*, const Real*, const Real*, const std::uint32_t*,
+                                 int, int, Real*, Real*, Real*);
+
+template <bool kCoulomb, CoulombModifier C, class Real>
+HessianKernelOf<Real> hessian_kernel_of(VdwModifier m) {
   switch (m) {
     case VdwModifier::none:
-      return hessian_halves<VdwModifier::none, kCoulomb, C, false>;
+      return hessian_halves<VdwModifier::none, kCoulomb, C, false, Real>;
     case VdwModifier::potential_shift:
-      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C, false>;
+      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C, false, Real>;
     case VdwModifier::force_switch:
-      return hessian_halves<VdwModifier::force_switch, kCoulomb, C, false>;
+      return hessian_halves<VdwModifier::force_switch, kCoulomb, C, false, Real>;
     case VdwModifier::potential_switch:
-      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C, false>;
+      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C, false, Real>;
   }
   return nullptr;
+}
+
+template <class Real>
+HessianKernelOf<Real> hessian_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+  if (shared_switch)
+    return hessian_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true, Real>;
+  if (!coulomb) return hessian_kernel_of<false, CoulombModifier::none, Real>(m);
+  return c == CoulombModifier::potential_switch ? hessian_kernel_of<true, CoulombModifier::potential_switch, Real>(m)
+                                                : hessian_kernel_of<true, CoulombModifier::none, Real>(m);
 }
 
 }  // namespace
@@ -332,11 +347,10 @@ MixedForceKernel MixedForceKernelFor(VdwModifier m, bool coulomb, CoulombModifie
   return force_kernel_for<float>(m, coulomb, c, shared_switch, energies);
 }
 HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  if (shared_switch)
-    return hessian_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true>;
-  if (!coulomb) return hessian_kernel_of<false, CoulombModifier::none>(m);
-  return c == CoulombModifier::potential_switch ? hessian_kernel_of<true, CoulombModifier::potential_switch>(m)
-                                                : hessian_kernel_of<true, CoulombModifier::none>(m);
+  return hessian_kernel_for<double>(m, coulomb, c, shared_switch);
+}
+MixedHessianKernel MixedHessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+  return hessian_kernel_for<float>(m, coulomb, c, shared_switch);
 }
 MaskKernel MaskKernelFor() { return mask_halves<double>; }
 MixedMaskKernel MixedMaskKernelFor() { return mask_halves<float>; }
@@ -357,6 +371,7 @@ namespace vimd {
 HWY_EXPORT(ForceKernelFor);
 HWY_EXPORT(MixedForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
+HWY_EXPORT(MixedHessianKernelFor);
 HWY_EXPORT(MaskKernelFor);
 HWY_EXPORT(MixedMaskKernelFor);
 HWY_EXPORT(Target);
@@ -387,6 +402,11 @@ MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombM
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
                              bool shared_switch) {
   return checked(HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+}
+
+MixedHessianKernel mixed_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                        bool shared_switch) {
+  return checked(HWY_DYNAMIC_DISPATCH(MixedHessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }

@@ -46,7 +46,8 @@ using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0
 // The same in mixed precision: pairs computed and forces accumulated in single precision (the
 // energies of a half summed in double), as GROMACS's default build does; about twice the pairs
 // per vector. For dynamics that tolerate force errors of ~1e-6 relative (RATTLE, SHAKE, Verlet),
-// not for the variational integrator's solve.
+// and for the variational solve's first iteration of a step, whose error the double-precision
+// iterations after it correct.
 using MixedForceKernel = void (*)(const PairViewOf<float>&, const std::uint32_t* masks, int h0, int h1, float* fx,
                                   float* fy, float* fz, double* half_lj, double* half_coulomb,
                                   std::uint32_t* inside_masks);
@@ -61,6 +62,10 @@ using MixedMaskKernel = void (*)(const PairViewOf<float>&, int h0, int h1, doubl
 // list's own masks, or the inside masks a force pass at the same positions recorded).
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
                                const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz);
+// The same in single precision, for the variational solve's first iteration of a step (an
+// initial guess, corrected by the double-precision iterations after it).
+using MixedHessianKernel = void (*)(const PairViewOf<float>&, const float* ux, const float* uy, const float* uz,
+                                    const std::uint32_t* masks, int h0, int h1, float* ox, float* oy, float* oz);
 
 namespace simd {
 
@@ -73,6 +78,8 @@ MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombM
 MaskKernel mask_kernel();
 MixedMaskKernel mixed_mask_kernel();
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
+MixedHessianKernel mixed_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                        bool shared_switch);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
 std::string target_name();

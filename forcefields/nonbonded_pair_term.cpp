@@ -54,18 +54,21 @@ double excluded_forces(const PairViewOf<Real>& d, const NeighborList::ExcludedPa
   return e_coulomb;
 }
 
-void excluded_hessian(const PairView& d, const NeighborList::ExcludedPair* excluded, double cutoff2, const double* ux,
-                      const double* uy, const double* uz, int p0, int p1, double* ox, double* oy, double* oz) {
+// The same for Hessian–vector products, in double precision, added to buffers of the view's precision.
+template <class Real>
+void excluded_hessian(const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded, double cutoff2,
+                      const Real* ux, const Real* uy, const Real* uz, int p0, int p1, Real* ox, Real* oy, Real* oz) {
   for (int p = p0; p < p1; ++p) {
     const NeighborList::ExcludedPair& pair = excluded[p];
     const Vec3& shift = d.shifts[pair.shift];
     const int i = pair.i_slot, j = pair.j_slot;
-    const double dx = d.x[i] - d.x[j] - shift[0], dy = d.y[i] - d.y[j] - shift[1], dz = d.z[i] - d.z[j] - shift[2];
+    const double dx = double(d.x[i]) - d.x[j] - shift[0], dy = double(d.y[i]) - d.y[j] - shift[1],
+                 dz = double(d.z[i]) - d.z[j] - shift[2];
     const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= cutoff2) continue;
     double a, b;  // b ≠ 0 only where a switch acts
     rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
-    const double dux = ux[i] - ux[j], duy = uy[i] - uy[j], duz = uz[i] - uz[j];
+    const double dux = double(ux[i]) - ux[j], duy = double(uy[i]) - uy[j], duz = double(uz[i]) - uz[j];
     const double bp = b * (dx * dux + dy * duy + dz * duz);
     const double hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
     ox[i] += hx;
@@ -289,6 +292,14 @@ void NonbondedPairTerm::fix_pair_set(const Coords* q) {
   pair_set_fixed_ = true;
 }
 
+void NonbondedPairTerm::set_single_precision(bool on) {
+  single_precision_ = on;
+  if (on && !mixed_ && !single_precision_asked_) {
+    single_precision_asked_ = true;
+    if (layout_build_ >= 0) refresh_single_precision_layout();  // later list builds refresh them too
+  }
+}
+
 void NonbondedPairTerm::save(Carried& out) const {
   if (list_.builds() > 0) out.put("neighbor_list_built_at", list_.built_at());
   if (prunes_ > 0) out.put("neighbor_list_pruned_at", pruned_at_);
@@ -319,7 +330,7 @@ void NonbondedPairTerm::refresh_layout() {
     slots_.charge[s] = charge_[a];
     slot_type_[s] = type_[a];
   }
-  for (auto* v : {&slots_.x, &slots_.y, &slots_.z, &ux_, &uy_, &uz_}) v->resize(n);
+  for (auto* v : {&slots_.x, &slots_.y, &slots_.z, &slots_.ux, &slots_.uy, &slots_.uz}) v->resize(n);
   slots_.c6.assign(static_cast<std::size_t>(n_types_) * n, 0.0);
   slots_.c12.assign(slots_.c6.size(), 0.0);
   for (int t = 0; t < n_types_; ++t)
@@ -328,13 +339,17 @@ void NonbondedPairTerm::refresh_layout() {
       slots_.c6[static_cast<std::size_t>(t) * n + s] = c6_[t * n_types_ + slot_type_[s]];
       slots_.c12[static_cast<std::size_t>(t) * n + s] = c12_[t * n_types_ + slot_type_[s]];
     }
-  if (mixed_) {
-    mixed_slots_.charge.assign(slots_.charge.begin(), slots_.charge.end());
-    mixed_slots_.c6.assign(slots_.c6.begin(), slots_.c6.end());
-    mixed_slots_.c12.assign(slots_.c12.begin(), slots_.c12.end());
-    for (auto* v : {&mixed_slots_.x, &mixed_slots_.y, &mixed_slots_.z}) v->resize(n);
-  }
+  if (mixed_ || single_precision_asked_) refresh_single_precision_layout();
   layout_build_ = list_.builds();
+}
+
+void NonbondedPairTerm::refresh_single_precision_layout() {
+  mixed_slots_.charge.assign(slots_.charge.begin(), slots_.charge.end());
+  mixed_slots_.c6.assign(slots_.c6.begin(), slots_.c6.end());
+  mixed_slots_.c12.assign(slots_.c12.begin(), slots_.c12.end());
+  for (auto* v : {&mixed_slots_.x, &mixed_slots_.y, &mixed_slots_.z, &mixed_slots_.ux, &mixed_slots_.uy,
+                  &mixed_slots_.uz})
+    v->resize(list_.n_slots());
 }
 
 // Runs pack() (worksharing loops that fill the slot arrays), then kernel(thread, n_threads, fx, fy,
@@ -385,7 +400,7 @@ constexpr int kExcludedBlock = 1024;
 void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
   prepare(q);
   const bool coulomb = rf_.kind == CoulombKind::reaction_field, with_energies = !energies.empty();
-  if (mixed_)
+  if (mixed_ || single_precision_)
     add_pair_forces(mixed_slots_,
                     simd::mixed_force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_, with_energies), q, f,
                     energies);
@@ -407,9 +422,10 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
   const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : nullptr;
-  // The Hessian–vector products are double precision: they reuse only masks a double pass recorded.
-  std::uint32_t* inside_masks =
-      hessian_requested_ && !pair_set_fixed_ && !mixed_ ? record_inside_masks(q).data() : nullptr;
+  // A Hessian–vector product reuses only masks a pass of its own precision recorded.
+  std::uint32_t* inside_masks = hessian_requested_ && !pair_set_fixed_
+                                    ? record_inside_masks(q, std::is_same_v<Real, float>).data()
+                                    : nullptr;
   run_parallel(slots.thread_buffers, [&] { list_.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
                [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
                  for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
@@ -432,13 +448,24 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
 void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
   hessian_requested_ = true;
   prepare(q);
-  const PairView view = pair_view<double>();
   const bool coulomb = rf_.kind == CoulombKind::reaction_field;
-  const HessianKernel pair_kernel = simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_);
+  if (single_precision_)
+    add_pair_hessian_vector(mixed_slots_, simd::mixed_hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_),
+                            q, u, out);
+  else
+    add_pair_hessian_vector(slots_, simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_), q, u,
+                            out);
+}
+
+template <class Real, class Kernel>
+void NonbondedPairTerm::add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel pair_kernel, const Coords& q,
+                                                const Coords& u, Coords& out) {
+  const PairViewOf<Real> view = pair_view<Real>();
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
-  const int n_excluded = coulomb ? static_cast<int>(list_.excluded_pairs().size()) : 0;
+  const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
-  const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : find_inside_masks(q);
+  const std::uint32_t* masks =
+      pair_set_fixed_ ? fixed_masks_.data() : find_inside_masks(q, std::is_same_v<Real, float>);
   if (masks) {
     if (!pair_set_fixed_) ++hessian_cache_hits_;
   } else {
@@ -448,26 +475,26 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
     masks = list_masks_.data();
   }
   run_parallel(
-      slots_.thread_buffers,
+      slots.thread_buffers,
       [&] {
-        list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
-        list_.pack_vectors(u, ux_.data(), uy_.data(), uz_.data());
+        list_.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data());
+        list_.pack_vectors(u, slots.ux.data(), slots.uy.data(), slots.uz.data());
       },
-      [&](int t, int nt, double* ox, double* oy, double* oz) {
+      [&](int t, int nt, Real* ox, Real* oy, Real* oz) {
         for_thread_chunks(list_.n_halves(), t, nt, [&](int h0, int h1) {
-          pair_kernel(view, ux_.data(), uy_.data(), uz_.data(), masks, h0, h1, ox, oy, oz);
+          pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });
         for (int b = t; b < n_blocks; b += nt)
-          excluded_hessian(view, excluded, cutoff2_, ux_.data(), uy_.data(), uz_.data(), b * kExcludedBlock,
-                           std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
+          excluded_hessian(view, excluded, cutoff2_, slots.ux.data(), slots.uy.data(), slots.uz.data(),
+                           b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
       },
       out);
 }
 
-std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords& q) {
+std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords& q, bool single) {
   InsideMasks* slot = nullptr;
   for (auto& c : inside_cache_)
-    if (c.list_version == list_version() && same_positions(c.q, q)) slot = &c;
+    if (c.list_version == list_version() && c.single == single && same_positions(c.q, q)) slot = &c;
   if (!slot) {
     if (inside_cache_.size() < kHessianCacheSlots) {
       slot = &inside_cache_.emplace_back();
@@ -476,6 +503,7 @@ std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords&
                                 [](const InsideMasks& a, const InsideMasks& b) { return a.last_used < b.last_used; });
     }
     slot->list_version = list_version();
+    slot->single = single;
     slot->q = q;
   }
   slot->last_used = ++cache_clock_;
@@ -483,9 +511,9 @@ std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords&
   return slot->masks;
 }
 
-const std::uint32_t* NonbondedPairTerm::find_inside_masks(const Coords& q) {
+const std::uint32_t* NonbondedPairTerm::find_inside_masks(const Coords& q, bool single) {
   for (auto& c : inside_cache_)
-    if (c.list_version == list_version() && same_positions(c.q, q)) {
+    if (c.list_version == list_version() && c.single == single && same_positions(c.q, q)) {
       c.last_used = ++cache_clock_;
       return c.masks.data();
     }

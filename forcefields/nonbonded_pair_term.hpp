@@ -37,6 +37,9 @@ class NonbondedPairTerm : public ForceTerm {
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override;
   void prepare(const Coords& q) override;
   void fix_pair_set(const Coords* q) override;
+  // Forces (mixed precision already has them) and Hessian–vector products from the single-precision kernels.
+  bool has_single_precision() const override { return true; }
+  void set_single_precision(bool on) override;
   long rebuilds() const override { return list_.builds(); }
   long prunes() const override { return prunes_; }
   // Searches and prunings.
@@ -70,14 +73,16 @@ class NonbondedPairTerm : public ForceTerm {
  private:
   struct InsideMasks {
     long list_version = -1;
+    bool single = false;  // recorded by a single-precision force pass (valid for those HVPs only)
     Coords q;
     std::vector<std::uint32_t> masks;  // per list entry
     long last_used = 0;
   };
-  std::vector<std::uint32_t>& record_inside_masks(const Coords& q);
-  const std::uint32_t* find_inside_masks(const Coords& q);
+  std::vector<std::uint32_t>& record_inside_masks(const Coords& q, bool single);
+  const std::uint32_t* find_inside_masks(const Coords& q, bool single);
   static bool same_positions(const Coords& a, const Coords& b);
   void refresh_layout();  // slot-ordered charges and types after a list rebuild
+  void refresh_single_precision_layout();  // their single-precision copies
   bool pruning() const { return list_.skin() > skin_; }
   // moved_since_search: the largest displacement from the search's positions to q.
   void prune(const Coords& q, double moved_since_search);
@@ -86,12 +91,14 @@ class NonbondedPairTerm : public ForceTerm {
   const std::vector<int>& half_start() const { return pruning() ? pruned_half_start_ : list_.half_start(); }
   // Changes whenever entries() does (masks and caches refer to its entry numbers).
   long list_version() const { return list_.builds() + prunes_; }
-  // Slot-ordered arrays in one precision: double always, float as well for mixed precision.
+  // Slot-ordered arrays in one precision: double always, float as well for mixed precision or
+  // once single precision was asked for.
   template <class Real>
   struct SlotArrays {
     std::vector<Real> charge;
     std::vector<Real> c6, c12;  // [type_i * n_slots + slot_j]
     std::vector<Real> x, y, z;  // positions, packed per evaluation
+    std::vector<Real> ux, uy, uz;  // the direction of a Hessian–vector product, packed per product
     std::vector<std::vector<Real>> thread_buffers;  // per thread: x, y, z blocks of n_slots
   };
   template <class Real>
@@ -106,11 +113,16 @@ class NonbondedPairTerm : public ForceTerm {
   template <class Real, class Kernel>
   void add_pair_forces(SlotArrays<Real>& slots, Kernel pair_kernel, const Coords& q, Coords& f,
                        std::span<double> energies);
+  template <class Real, class Kernel>
+  void add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel pair_kernel, const Coords& q, const Coords& u,
+                               Coords& out);
   template <class Real, class Pack, class Kernel>
   void run_parallel(std::vector<std::vector<Real>>& buffers, Pack&& pack, Kernel&& kernel, Coords& out);
 
   int n_atoms_;
   bool mixed_;  // precision = "mixed": forces from the single-precision kernel
+  bool single_precision_ = false;       // set_single_precision: forces and HVPs in single precision now
+  bool single_precision_asked_ = false;  // ever: the single-precision slot arrays are kept up to date
   VdwModifier modifier_;
   LjConstants lj_;
   ReactionField rf_;
@@ -135,7 +147,6 @@ class NonbondedPairTerm : public ForceTerm {
   std::vector<int> slot_type_;
   SlotArrays<double> slots_;
   SlotArrays<float> mixed_slots_;
-  std::vector<double> ux_, uy_, uz_;
   std::vector<double> partial_energies_;             // per i-half and per excluded-pair block
   std::vector<InsideMasks> inside_cache_;
   std::vector<std::uint32_t> list_masks_;

@@ -20,6 +20,7 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   const Eigen::VectorXd& w = inverse_mass();
   point.q = q;
   point.v = v;
+  const SinglePrecisionScope precision(problem_.force_field, single_precision_ && !segment_start);
   if (forces_at_q)
     point.forces = *forces_at_q;
   else if (energies_ == Energies::everywhere || (segment_start && problem_.energies_due))
@@ -49,6 +50,11 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
 }
 
+void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+  const SinglePrecisionScope precision(problem_.force_field, single_precision_);
+  problem_.force_field.hessian_vector(q, u, out);
+}
+
 void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
                                   Coords* deferred_hvp) {
   const int n = n_atoms();
@@ -68,7 +74,7 @@ void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_ba
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) deferred_hvp->col(i) += u_tangent_.col(i);
   } else {
-    problem_.force_field.hessian_vector(point.q, u_tangent_, hessian_u_);
+    hessian_vector(point.q, u_tangent_, hessian_u_);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
   }

@@ -27,6 +27,13 @@ class ConstrainedDynamics {
   // (a variational step: the stages need forces alone, and the state it writes is a segment start).
   enum class Energies { everywhere, at_due_starts };
   void set_energies(Energies energies) { energies_ = energies; }
+  // While on, the stages inside a segment and the Hessian–vector products use the force field's
+  // single-precision pair kernels; a segment's start stays double (its forces are the state's,
+  // and a solve reuses them). For the first iteration of a solve: the iterations after it, in
+  // double, remove its rounding error.
+  void set_single_precision(bool on) { single_precision_ = on; }
+  // ∇²V(q) u, in the precision set above.
+  void hessian_vector(const Coords& q, const Coords& u, Coords& out);
 
   // Evaluates the field at (q, v); `segment_start`: (q, v) starts a segment. `forces_at_q`, when
   // given, must be the forces at exactly this q and saves the force evaluation.
@@ -49,6 +56,7 @@ class ConstrainedDynamics {
  private:
   Problem& problem_;
   Energies energies_ = Energies::everywhere;
+  bool single_precision_ = false;
   // Scratch, sized once, so evaluations do not allocate.
   Coords u_tangent_, hessian_u_;
   Eigen::VectorXd rhs_, z_, coefficients_;

@@ -59,6 +59,10 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
     s.anderson_depth = 4;
   else if (config.acceleration != "none")
     throw InputError(file, 0, "acceleration must be \"none\" or \"anderson\", not \"" + config.acceleration + "\"");
+  if (config.first_iteration_precision != "single" && config.first_iteration_precision != "double")
+    throw InputError(file, 0, "first_iteration_precision must be \"single\" or \"double\", not \"" +
+                                  config.first_iteration_precision + "\"");
+  s.single_precision_first_iteration = config.first_iteration_precision == "single";
   return s;
 }
 
@@ -234,7 +238,7 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
     w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v, &w.start_direction);
     w.projection.pull_back(w.proj_minus, p_minus, w.p_hat, step);
     w.minus.vjp(w.dynamics, w.seg_minus, w.p_hat, nullptr, -1.0, w.minus_q, w.minus_v, &w.start_direction);
-    w.problem->force_field.hessian_vector(q, w.start_direction, w.p_hat);
+    w.dynamics.hessian_vector(q, w.start_direction, w.p_hat);
     for_each_atom(n, [&](int i) {
       w.rho_q.col(i) += w.minus_q.col(i) - w.p_hat.col(i);
       w.rho_v.col(i) += w.minus_v.col(i);
@@ -525,6 +529,11 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   int it = 0;
   for (;;) {
     ++it;
+    // The first iteration starts from the prediction, whose error is far above single precision's
+    // rounding: it runs the pair kernels in single precision (except at q, whose forces the step
+    // keeps), and the iterations after it, in double, correct both errors. So it never ends a step.
+    const bool single = settings_.single_precision_first_iteration && it == 1 && problem.force_field.has_single_precision();
+    w.dynamics.set_single_precision(single);
     // With α⁻ = 0, q = q̄ throughout the step: the first stage's forces are computed once.
     forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 && it > 1 ? &w.seg_plus.stages[0].forces : nullptr);
     if (it == 1) {
@@ -533,6 +542,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     w.euclid_plus.set_point(w.proj_plus.x);
     w.euclid_plus.apply(w.p_plus);
     residual(w, w.q, w.v, w.p_plus, w.pbar, step);
+    w.dynamics.set_single_precision(false);
     const Coords& x_minus = settings_.alpha_minus != 0 ? w.proj_minus.x : w.q;
     // δp = ρ_q,  δv = M⁻¹(τ⁺ρ_q − ρ_v)/h,  δq = −(∂⁻(w) − q̄) − τ⁻δv
     for_each_atom(n, [&](int i) {
@@ -543,7 +553,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     err = std::max(max_abs(w.dv), max_abs(w.dq) / h);
     if (!std::isfinite(err))
       throw ConvergenceError("vi", step, it, err, "the residual is not finite (the step is unstable; reduce dt)");
-    if (err <= tolerance) break;
+    if (err <= tolerance && !single) break;
     if (it > 1) contraction = std::max(contraction, err / previous);
     // No progress over two iterations (the plain iteration's convergence is not monotone, a
     // cycle across a jump repeats every other iteration): damp; good progress: undamp.

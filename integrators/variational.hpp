@@ -42,6 +42,10 @@ struct VariationalSettings {
   // With α⁻ = 0, a predicted stop advances the ∂⁺ segment to the updated point to first order
   // instead of by a forward pass (see advance_plus_segment_linearly).
   bool linear_final_segment = true;
+  // The first iteration of a step evaluates its stages (not the start) and Hessian–vector
+  // products with single-precision pair kernels (ConstrainedDynamics::set_single_precision);
+  // the step then always takes a second iteration, in double, as it nearly always does anyway.
+  bool single_precision_first_iteration = true;
 
   // From [integrator]; InputError for a bad bias or projection. `file` names the config in errors.
   static VariationalSettings from_config(const IntegratorConfig& config, const std::string& file = "[integrator]");

@@ -155,6 +155,36 @@ void expect_mixed_matches_brute_force(NonbondedPairTerm& term, const System& s, 
   EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what;
 }
 
+// set_single_precision (the variational solve's first iteration): forces and Hessian–vector
+// products from the single-precision kernels, to float accuracy; a product after a force pass at
+// the same positions reuses that pass's cut-off masks and gives the same result; and back in
+// double, the double results again.
+void expect_single_precision_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q,
+                                                 const std::string& what) {
+  std::mt19937_64 rng(98);
+  const Coords u = random_vectors(static_cast<int>(q.cols()), rng, 1.0);
+  const Reference ref = brute_force(term, s, q, u);
+  ASSERT_TRUE(term.has_single_precision());
+  term.set_single_precision(true);
+  const Coords hu = testing::hessian_vector(term, q, u);
+  const double hessian_error = relative_difference(hu, ref.hu);
+  EXPECT_LT(hessian_error, 1e-5) << what;
+  EXPECT_GT(hessian_error, 1e-12) << what << ": no single-precision rounding, is the single-precision HVP running?";
+  Coords f = Coords::Zero(3, q.cols());
+  term.add_forces(q, f, {});
+  const double force_error = relative_difference(f, ref.f);
+  EXPECT_LT(force_error, 1e-5) << what;
+  EXPECT_GT(force_error, 1e-12) << what << ": no single-precision rounding, are the single-precision forces running?";
+  const long hits = term.hessian_cache_hits();
+  EXPECT_EQ((testing::hessian_vector(term, q, u) - hu).cwiseAbs().maxCoeff(), 0.0) << what << ", masks reused";
+  EXPECT_EQ(term.hessian_cache_hits(), hits + 1) << what;
+  term.set_single_precision(false);
+  EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what << ", double again";
+  f.setZero();
+  term.add_forces(q, f, {});
+  EXPECT_LT(relative_difference(f, ref.f), 1e-12) << what << ", double again";
+}
+
 const char* const kModifiers[] = {"none", "potential-shift", "force-switch", "potential-switch"};
 
 // The SIMD kernels with the Coulomb switch (from 0.05 nm: excluded pairs switched too) and a
@@ -241,6 +271,7 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
         auto config = testing::pair_config(modifier, coulomb, 0.0);
         NonbondedPairTerm term(system, config);
         expect_matches_brute_force(term, system, q, target + " " + modifier + " " + coulomb);
+        expect_single_precision_matches_brute_force(term, system, q, target + " single " + modifier + " " + coulomb);
         config.precision = "mixed";
         NonbondedPairTerm mixed_term(system, config);
         expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed " + modifier + " " + coulomb);
@@ -254,6 +285,8 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
       NonbondedPairTerm term(system, config);
       expect_matches_brute_force(term, system, q, target + " LJ and Coulomb switched, Coulomb from " +
                                                       std::to_string(coulomb_switch));
+      expect_single_precision_matches_brute_force(
+          term, system, q, target + " single, LJ and Coulomb switched, Coulomb from " + std::to_string(coulomb_switch));
       config.precision = "mixed";
       NonbondedPairTerm mixed_term(system, config);
       expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed, LJ and Coulomb switched, Coulomb from " +

@@ -129,6 +129,8 @@ class PySimulation {
     d["wall_seconds"] = totals_.wall_seconds;
     d["force_evaluations"] = totals_.force_evaluations;
     d["hessian_evaluations"] = totals_.hessian_evaluations;
+    d["single_precision_force_evaluations"] = totals_.single_precision_force_evaluations;
+    d["single_precision_hessian_evaluations"] = totals_.single_precision_hessian_evaluations;
     d["neighbor_rebuilds"] = totals_.neighbor_rebuilds;
     d["neighbor_prunes"] = totals_.neighbor_prunes;
     d["neighbor_build_seconds"] = totals_.neighbor_build_seconds;
