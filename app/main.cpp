@@ -105,7 +105,7 @@ RunIdentity run_identity(const System& s, const RunConfig& c, long summary_every
           {"projection", i.projection},
           {"solver_tolerance", i.solver_tolerance ? text(*i.solver_tolerance) : "(default)"},
           {"acceleration", i.acceleration},
-          {"first_iteration_precision", i.first_iteration_precision},
+          {"solver_precision", i.solver_precision},
           {"tableau", tableau.text()},
           {"thermostat", i.thermostat},
           {"temperature", i.temperature ? text(*i.temperature) : "(none)"},

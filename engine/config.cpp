@@ -26,7 +26,7 @@ const std::map<std::string, std::vector<std::string>>& schema() {
         "epsilon_r", "epsilon_rf", "neighbor_skin", "neighbor_search_skin", "precision"}},
       {"integrator",
        {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
-        "projection", "solver_tolerance", "max_iterations", "acceleration", "first_iteration_precision", "tableau"}},
+        "projection", "solver_tolerance", "max_iterations", "acceleration", "solver_precision", "tableau"}},
       {"integrator.tableau", {"a", "b", "c", "order"}},
       {"output", {"dir", "trajectory_every", "energy_every", "checkpoint_every"}},
   };
@@ -41,7 +41,7 @@ const std::vector<std::string> kCoulombModifiers = {"none", "potential-switch"};
 const std::vector<std::string> kPrecisions = {"double", "mixed"};
 const std::vector<std::string> kProjections = {"euclidean", "mass"};
 const std::vector<std::string> kAccelerations = {"none", "anderson"};
-const std::vector<std::string> kFirstIterationPrecisions = {"single", "double"};
+const std::vector<std::string> kSolverPrecisions = {"mixed", "double"};
 
 std::size_t levenshtein(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
@@ -482,8 +482,8 @@ class ConfigReader {
       in.max_iterations = static_cast<int>(iterations);
     }
     if (const auto* n = t.get("acceleration")) in.acceleration = choice(*n, "acceleration", kAccelerations);
-    if (const auto* n = t.get("first_iteration_precision"))
-      in.first_iteration_precision = choice(*n, "first_iteration_precision", kFirstIterationPrecisions);
+    if (const auto* n = t.get("solver_precision"))
+      in.solver_precision = choice(*n, "solver_precision", kSolverPrecisions);
     const auto* tableau = t.get("tableau");
     if (tableau) {
       const auto* table = tableau->as_table();

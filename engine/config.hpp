@@ -57,7 +57,7 @@ struct IntegratorConfig {
   std::optional<double> solver_tolerance;   // default chosen per method by the integrator
   int max_iterations = 50;
   std::string acceleration = "none";        // "none" | "anderson"
-  std::string first_iteration_precision = "single";  // vi: "single" | "double" pair kernels in a step's first iteration
+  std::string solver_precision = "mixed";  // vi: "mixed" | "double" (VariationalSettings::mixed_precision_solve)
   std::optional<TableauConfig> tableau;
 };
 

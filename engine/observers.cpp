@@ -322,7 +322,7 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
                totals.hessian_evaluations / steps, totals.neighbor_rebuilds, totals.neighbor_prunes,
                1e3 * totals.neighbor_build_seconds / steps);
   if (totals.single_precision_force_evaluations + totals.single_precision_hessian_evaluations > 0)
-    std::fprintf(out_, "                    of which in single precision (solver's first iteration): %.2f and %.2f\n",
+    std::fprintf(out_, "                    of which in single precision (mixed-precision solve): %.2f and %.2f\n",
                  totals.single_precision_force_evaluations / steps,
                  totals.single_precision_hessian_evaluations / steps);
   if (!platform_.empty()) {

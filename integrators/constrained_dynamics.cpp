@@ -20,7 +20,7 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   const Eigen::VectorXd& w = inverse_mass();
   point.q = q;
   point.v = v;
-  const SinglePrecisionScope precision(problem_.force_field, single_precision_ && !segment_start);
+  const SinglePrecisionScope precision(problem_.force_field, single_precision_stages_ && !segment_start);
   if (forces_at_q)
     point.forces = *forces_at_q;
   else if (energies_ == Energies::everywhere || (segment_start && problem_.energies_due))
@@ -51,7 +51,7 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
 }
 
 void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
-  const SinglePrecisionScope precision(problem_.force_field, single_precision_);
+  const SinglePrecisionScope precision(problem_.force_field, single_precision_products_);
   problem_.force_field.hessian_vector(q, u, out);
 }
 

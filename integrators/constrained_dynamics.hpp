@@ -27,11 +27,12 @@ class ConstrainedDynamics {
   // (a variational step: the stages need forces alone, and the state it writes is a segment start).
   enum class Energies { everywhere, at_due_starts };
   void set_energies(Energies energies) { energies_ = energies; }
-  // While on, the stages inside a segment and the Hessian–vector products use the force field's
-  // single-precision pair kernels; a segment's start stays double (its forces are the state's,
-  // and a solve reuses them). For the first iteration of a solve: the iterations after it, in
-  // double, remove its rounding error.
-  void set_single_precision(bool on) { single_precision_ = on; }
+  // While on, the force field's single-precision pair kernels evaluate the stages inside a
+  // segment (a segment's start stays double: its forces are the state's, and a solve reuses them),
+  // and the Hessian–vector products. For a solve's first iteration, and its products where the
+  // tolerance is far above their rounding (VariationalSettings::mixed_precision_solve).
+  void set_single_precision_stages(bool on) { single_precision_stages_ = on; }
+  void set_single_precision_products(bool on) { single_precision_products_ = on; }
   // ∇²V(q) u, in the precision set above.
   void hessian_vector(const Coords& q, const Coords& u, Coords& out);
 
@@ -56,7 +57,7 @@ class ConstrainedDynamics {
  private:
   Problem& problem_;
   Energies energies_ = Energies::everywhere;
-  bool single_precision_ = false;
+  bool single_precision_stages_ = false, single_precision_products_ = false;
   // Scratch, sized once, so evaluations do not allocate.
   Coords u_tangent_, hessian_u_;
   Eigen::VectorXd rhs_, z_, coefficients_;

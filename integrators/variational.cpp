@@ -59,10 +59,9 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
     s.anderson_depth = 4;
   else if (config.acceleration != "none")
     throw InputError(file, 0, "acceleration must be \"none\" or \"anderson\", not \"" + config.acceleration + "\"");
-  if (config.first_iteration_precision != "single" && config.first_iteration_precision != "double")
-    throw InputError(file, 0, "first_iteration_precision must be \"single\" or \"double\", not \"" +
-                                  config.first_iteration_precision + "\"");
-  s.single_precision_first_iteration = config.first_iteration_precision == "single";
+  if (config.solver_precision != "mixed" && config.solver_precision != "double")
+    throw InputError(file, 0, "solver_precision must be \"mixed\" or \"double\", not \"" + config.solver_precision + "\"");
+  s.mixed_precision_solve = config.solver_precision == "mixed";
   return s;
 }
 
@@ -516,6 +515,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   const double round_off = 8 * std::numeric_limits<double>::epsilon() * (max_abs(state.q) / h + max_abs(state.v));
   const double tolerance = std::max(settings_.tolerance, round_off);
   double err = std::numeric_limits<double>::infinity(), previous = err, before_previous = err;
+  const bool mixed = settings_.mixed_precision_solve && problem.force_field.has_single_precision();
   // Relaxation of the update, halved while the residual stops decreasing. The residual jumps where
   // a pair crosses the cut-off inside a stage (the reaction field's second derivative, or an
   // unsmoothed force, is discontinuous there); then no root exists, the plain iteration cycles
@@ -529,11 +529,11 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   int it = 0;
   for (;;) {
     ++it;
-    // The first iteration starts from the prediction, whose error is far above single precision's
-    // rounding: it runs the pair kernels in single precision (except at q, whose forces the step
-    // keeps), and the iterations after it, in double, correct both errors. So it never ends a step.
-    const bool single = settings_.single_precision_first_iteration && it == 1 && problem.force_field.has_single_precision();
-    w.dynamics.set_single_precision(single);
+    // See VariationalSettings::mixed_precision_solve.
+    const bool single = mixed && it == 1;
+    w.dynamics.set_single_precision_stages(single);
+    w.dynamics.set_single_precision_products(single ||
+                                             (mixed && tolerance >= VariationalSettings::kSingleProductsMinTolerance));
     // With α⁻ = 0, q = q̄ throughout the step: the first stage's forces are computed once.
     forward_segments(w, w.q, w.v, step, settings_.alpha_minus == 0 && it > 1 ? &w.seg_plus.stages[0].forces : nullptr);
     if (it == 1) {
@@ -542,7 +542,8 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
     w.euclid_plus.set_point(w.proj_plus.x);
     w.euclid_plus.apply(w.p_plus);
     residual(w, w.q, w.v, w.p_plus, w.pbar, step);
-    w.dynamics.set_single_precision(false);
+    w.dynamics.set_single_precision_stages(false);
+    w.dynamics.set_single_precision_products(false);
     const Coords& x_minus = settings_.alpha_minus != 0 ? w.proj_minus.x : w.q;
     // δp = ρ_q,  δv = M⁻¹(τ⁺ρ_q − ρ_v)/h,  δq = −(∂⁻(w) − q̄) − τ⁻δv
     for_each_atom(n, [&](int i) {

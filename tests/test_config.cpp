@@ -49,7 +49,7 @@ TEST(Config, ReadsEveryKey) {
   EXPECT_EQ(in.solver_tolerance, std::optional<double>(1e-11));
   EXPECT_EQ(in.max_iterations, 30);
   EXPECT_EQ(in.acceleration, "anderson");
-  EXPECT_EQ(in.first_iteration_precision, "double");
+  EXPECT_EQ(in.solver_precision, "double");
   ASSERT_TRUE(in.tableau.has_value());
   EXPECT_EQ(in.tableau->a, (std::vector<std::vector<double>>{{0.0, 0.0}, {0.5, 0.0}}));
   EXPECT_EQ(in.tableau->b, (std::vector<double>{0.0, 1.0}));
@@ -77,7 +77,7 @@ TEST(Config, DefaultsFromTheContract) {
   EXPECT_FALSE(c.integrator.temperature.has_value());
   EXPECT_FALSE(c.integrator.tableau.has_value());
   EXPECT_EQ(c.integrator.method, in.method);
-  EXPECT_EQ(c.integrator.first_iteration_precision, "single");
+  EXPECT_EQ(c.integrator.solver_precision, "mixed");
   EXPECT_EQ(c.output.trajectory_every, out.trajectory_every);
   EXPECT_EQ(c.output.energy_every, out.energy_every);
   EXPECT_EQ(c.output.checkpoint_every, 0);  // 0: by wall time
@@ -102,7 +102,7 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"bad_coulomb.toml", "coulomb = \"pme\" is not supported (choices: reaction-field, cutoff, none)"},
       {"bad_integrator_type.toml", "(choices: verlet, shake, rattle, vi, rk, minimize)"},
       {"bad_projection.toml", "(choices: euclidean, mass)"},
-      {"bad_first_iteration_precision.toml", "(choices: single, double)"},
+      {"bad_solver_precision.toml", "(choices: mixed, double)"},
       {"wrong_type.toml", "steps must be an integer, found a string"},
       {"fractional_steps.toml", "steps must be an integer, found a floating-point number"},
       {"string_cutoff.toml", "cutoff must be a number, found a string"},
