@@ -37,8 +37,8 @@ class ForceTerm {
   // changes: the truncated potential is smooth enough, and exact (see ForceField::fix_pair_set).
   virtual void fix_pair_set(const Coords* /*q*/) {}
   // Whether the term has single-precision kernels, and using them for forces and Hessian–vector
-  // products until called with false: for the first iteration of a solve, whose rounding error the
-  // double-precision iterations after it remove.
+  // products until called with false: for the parts of a solve whose rounding the solve absorbs
+  // (VariationalSettings::mixed_precision_solve).
   virtual bool has_single_precision() const { return false; }
   virtual void set_single_precision(bool /*on*/) {}
   virtual long rebuilds() const { return 0; }

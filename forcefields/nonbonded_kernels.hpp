@@ -62,8 +62,7 @@ using MixedMaskKernel = void (*)(const PairViewOf<float>&, int h0, int h1, doubl
 // list's own masks, or the inside masks a force pass at the same positions recorded).
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
                                const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz);
-// The same in single precision, for the variational solve's first iteration of a step (an
-// initial guess, corrected by the double-precision iterations after it).
+// The same in single precision, for the variational integrator's mixed-precision solve.
 using MixedHessianKernel = void (*)(const PairViewOf<float>&, const float* ux, const float* uy, const float* uz,
                                     const std::uint32_t* masks, int h0, int h1, float* ox, float* oy, float* oz);
 

@@ -44,9 +44,9 @@ struct VariationalSettings {
   bool linear_final_segment = true;
   // A mixed-precision solve, where the force field has single-precision pair kernels:
   // - the first iteration evaluates its stages (not a segment's start) and its Hessian–vector
-  //   products in single precision: it
-  //   starts from the prediction, whose error is far above their rounding, and the iterations
-  //   after it, in double, correct both; so it never ends a step (it rarely could anyway);
+  //   products in single precision: it starts from the prediction, whose error is far above their
+  //   rounding, and the iterations after it, in double, correct both; so it never ends a step (it
+  //   rarely could anyway);
   // - with a tolerance of at least kSingleProductsMinTolerance, every iteration's Hessian–vector
   //   products are single precision: they enter the residual only through the adjoint's O(τ²)
   //   terms, where their rounding moves it by ~2e-11 nm/ps (SPC/E water at 2 fs: below that the
