@@ -343,6 +343,10 @@ struct Constraints::Layout {
     return "constraint " + std::to_string(original[p] + 1) + " (atoms " + std::to_string(atom_i[p] + 1) + "-" +
            std::to_string(atom_j[p] + 1) + ", 1-based)";
   }
+  [[noreturn]] void throw_singular(int cluster) const {
+    throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " + describe(clusters[cluster].begin) +
+                             " is singular (the constraints are linearly dependent at these positions)");
+  }
 };
 
 namespace {
@@ -379,6 +383,7 @@ struct Constraints::Factorization::Impl {
   std::unique_ptr<Dynamic[]> dynamic;  // SparseLU is not movable, so no std::vector
   Coords r_left, r_right;
   bool factorized = false;
+  bool symmetric = false;  // factorised with q_left = q_right: r_left holds G's bond vectors
 
   // Sizes the storage for a layout once; later calls with the same layout are free.
   void bind(const std::shared_ptr<const Layout>& l) {
@@ -764,10 +769,84 @@ void Constraints::factorize(const Coords& q_left, const Coords& q_right, const E
       singular = std::max(singular, c);
     }
   if (singular >= 0)
-    throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " +
-                             L.describe(L.clusters[singular].begin) +
-                             " is singular (the constraints are linearly dependent at these positions)");
+    L.throw_singular(singular);
+  f.symmetric = symmetric;
   f.factorized = true;
+}
+
+void Constraints::constrain_acceleration(const Coords& q, const Coords& v, const Eigen::VectorXd& w, Coords& a,
+                                         Eigen::VectorXd& lambda, Factorization& s) const {
+  Factorization::Impl& f = *s.impl_;
+  f.factorized = false;
+  lambda.resize(size());
+  if (empty()) return;
+  const Layout& L = *layout_;
+  L.check_coords(q, "q");
+  L.check_coords(v, "v");
+  L.check_coords(a, "a");
+  const double* wp = L.weights(w);
+  f.bind(layout_);
+  const int nc = static_cast<int>(L.clusters.size());
+  int singular = -1;
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int c = 0; c < nc; ++c) {
+    const auto& cl = L.clusters[c];
+    for (int p = cl.begin; p < cl.end; ++p) f.r_left.col(p) = L.bond(q, p);
+    if (!f.factor(cl, f.r_left, f.r_left, wp, true)) {
+#pragma omp critical(vimd_constraints_singular)
+      singular = std::max(singular, c);
+      continue;
+    }
+    double local[kSmallMax];
+    double* x = cl.kind == Kind::Small ? local : f.dynamic[cl.slot].x.data();
+    for (int k = 0; k < cl.size(); ++k) {
+      const int p = cl.begin + k, i = L.atom_i[p], j = L.atom_j[p];
+      x[k] = -f.r_left.col(p).dot(a.col(i) - a.col(j)) - (v.col(i) - v.col(j)).squaredNorm();
+    }
+    f.solve(cl, x);
+    for (int k = 0; k < cl.size(); ++k) {
+      const int p = cl.begin + k, i = L.atom_i[p], j = L.atom_j[p];
+      lambda[L.original[p]] = x[k];
+      const Vec3 r = f.r_left.col(p) * x[k];
+      a.col(i) += wp[i] * r;
+      a.col(j) -= wp[j] * r;
+    }
+  }
+  if (singular >= 0)
+    L.throw_singular(singular);
+  f.symmetric = true;
+  f.factorized = true;
+}
+
+void Constraints::project_onto_kernel(const Factorization& s, const Eigen::VectorXd& w, Coords& u,
+                                      Eigen::VectorXd& mu) const {
+  mu.resize(size());
+  if (empty()) return;
+  Factorization::Impl& f = *s.impl_;
+  if (!f.factorized || !f.symmetric || f.layout != layout_)
+    throw std::logic_error("Constraints::project_onto_kernel needs a symmetric factorisation of these constraints");
+  const Layout& L = *layout_;
+  L.check_coords(u, "u");
+  const double* wp = L.weights(w);
+  const int nc = static_cast<int>(L.clusters.size());
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
+  for (int c = 0; c < nc; ++c) {
+    const auto& cl = L.clusters[c];
+    double local[kSmallMax];
+    double* x = cl.kind == Kind::Small ? local : f.dynamic[cl.slot].x.data();
+    for (int k = 0; k < cl.size(); ++k) {
+      const int p = cl.begin + k;
+      x[k] = f.r_left.col(p).dot(u.col(L.atom_i[p]) - u.col(L.atom_j[p]));
+    }
+    f.solve(cl, x);
+    for (int k = 0; k < cl.size(); ++k) {
+      const int p = cl.begin + k, i = L.atom_i[p], j = L.atom_j[p];
+      mu[L.original[p]] = x[k];
+      const Vec3 r = f.r_left.col(p) * x[k];
+      u.col(i) -= wp[i] * r;
+      u.col(j) += wp[j] * r;
+    }
+  }
 }
 
 void Constraints::Factorization::solve(Eigen::VectorXd& rhs) const {
@@ -1032,8 +1111,7 @@ void Constraints::project_velocities(const Coords& q, Coords& v, const Eigen::Ve
   }
   for (int c = 0; c < nc; ++c)
     if (ws.singular[c])
-      throw std::runtime_error("constraints: the matrix G W Gᵀ of the cluster with " + L.describe(L.clusters[c].begin) +
-                               " is singular (the constraints are linearly dependent at these positions)");
+      L.throw_singular(c);
   if (mu_out)
     for (int p = 0; p < size(); ++p) (*mu_out)[L.original[p]] = ws.delta[p];
 }

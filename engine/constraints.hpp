@@ -63,6 +63,18 @@ class Constraints {
   };
   void factorize(const Coords& q_left, const Coords& q_right, const Eigen::VectorXd& w, Factorization& out) const;
 
+  // The two solves of the constrained dynamics, each in one pass over the clusters (bond vectors,
+  // S, solve and scatter per cluster) rather than the four of apply_G, factorize, solve and add_GT.
+  // Same arithmetic as that sequence.
+  //
+  // a ← a + W Gᵀλ with S λ = −G a − D²g(v,v), S = G W Gᵀ at q (factorised into `s`, symmetric):
+  // the index-1 acceleration when a enters as W f. D²g_a(v,v) = |v_i − v_j|² (no minimum image).
+  void constrain_acceleration(const Coords& q, const Coords& v, const Eigen::VectorXd& w, Coords& a,
+                              Eigen::VectorXd& lambda, Factorization& s) const;
+  // u ← u − W Gᵀμ with μ = S⁻¹ G u, G and S = G W Gᵀ those `s` was factorised at (symmetric, with
+  // these w): the W-orthogonal projection of u onto ker G. μ into mu.
+  void project_onto_kernel(const Factorization& s, const Eigen::VectorXd& w, Coords& u, Eigen::VectorXd& mu) const;
+
   // SHAKE/RATTLE position stage: q ← q + diag(w) G(q_ref)ᵀ λ with λ chosen so that every
   // constraint holds to a relative deviation | |r_a| − d_a | / d_a ≤ tolerance (the measure of
   // max_relative_deviation). Newton on λ per cluster (exact Jacobian G(q) W G(q_ref)ᵀ for small

@@ -9,7 +9,6 @@ ConstrainedDynamics::ConstrainedDynamics(Problem& problem) : problem_(problem) {
   const int d = problem_.constraints.size();
   u_tangent_.setZero(3, n);
   hessian_u_.setZero(3, n);
-  rhs_.setZero(d);
   z_.setZero(d);
   coefficients_.setZero(d);
 }
@@ -32,21 +31,8 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
   for (int i = 0; i < n; ++i) point.a.col(i) = w[i] * f.col(i);
 
-  const Constraints& c = problem_.constraints;
-  if (!c.empty()) {
-    // S λ = −D²g(v,v) − G M⁻¹ f, with D²g_a(v,v) = |v_i − v_j|² (velocities: no minimum image).
-    c.apply_G(q, point.a, rhs_);
-    const auto& list = c.list();
-    const int d = c.size();
-#pragma omp parallel for schedule(static) if (d >= kParallelMinAtoms)
-    for (int k = 0; k < d; ++k) rhs_[k] = -rhs_[k] - (v.col(list[k].i) - v.col(list[k].j)).squaredNorm();
-    c.factorize(q, q, w, point.s_factor);
-    point.lambda = rhs_;
-    point.s_factor.solve(point.lambda);
-    c.add_GT(q, point.lambda, point.a, w);
-  } else {
-    point.lambda.resize(0);
-  }
+  // S λ = −D²g(v,v) − G M⁻¹ f, A = M⁻¹(f + Gᵀλ)
+  problem_.constraints.constrain_acceleration(q, v, w, point.a, point.lambda, point.s_factor);
   point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
 }
 
@@ -65,10 +51,8 @@ void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_ba
   const Constraints& c = problem_.constraints;
   if (!c.empty()) {
     // ũ = u − M⁻¹Gᵀz is the M-orthogonal projection of u = M⁻¹ā onto ker G.
-    c.apply_G(point.q, u_tangent_, z_);
-    point.s_factor.solve(z_);
+    c.project_onto_kernel(point.s_factor, w, u_tangent_, z_);
     coefficients_ = -z_;
-    c.add_GT(point.q, coefficients_, u_tangent_, w);
   }
   if (deferred_hvp) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)

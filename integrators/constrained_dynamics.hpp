@@ -60,7 +60,7 @@ class ConstrainedDynamics {
   bool single_precision_stages_ = false, single_precision_products_ = false;
   // Scratch, sized once, so evaluations do not allocate.
   Coords u_tangent_, hessian_u_;
-  Eigen::VectorXd rhs_, z_, coefficients_;
+  Eigen::VectorXd z_, coefficients_;
 };
 
 }  // namespace vimd

@@ -21,11 +21,7 @@ void TangentProjector::apply(Coords& u, Eigen::VectorXd* mu) {
     if (mu) mu->resize(0);
     return;
   }
-  constraints_.apply_G(q_, u, mu_);
-  factor_.solve(mu_);
-  if (mu) *mu = mu_;
-  mu_ = -mu_;
-  constraints_.add_GT(q_, mu_, u, inverse_weights_);
+  constraints_.project_onto_kernel(factor_, inverse_weights_, u, mu ? *mu : mu_);
 }
 
 void check_projection_kind(const std::string& kind) {
