@@ -126,6 +126,8 @@ struct Constraints::Layout {
   };
   std::vector<Triangle> triangles;
   std::vector<int> triangle_clusters;  // the clusters with a valid triangle, in order
+  // The atoms of each cluster, once each: those of cluster c at [atom_begin[c], atom_begin[c + 1]).
+  std::vector<int> atoms, atom_begin;
 
   Vec3 bond(const Coords& q, int p) const { return box.minimum_image(q.col(atom_i[p]) - q.col(atom_j[p])); }
   // x ← x − s W Gᵀ_p for constraint p with bond vector r: its atoms move by ∓ s w along r.
@@ -477,6 +479,8 @@ struct Constraints::Workspace {
   Factorization factorization;  // solvers of the dense and sparse clusters
   Coords r_ref, r_cur;          // bond vectors, cluster order
   Coords image;                 // per bond: minimum_image(q_i − q_j) − (q_i − q_j)
+  Coords atom_r, atom_d;         // per atom: closest_point's and pull_back's residual and update
+  std::vector<ClusterSolve> solves;  // per cluster: closest_point's or pull_back's outcome
   Eigen::VectorXd g, delta, lambda;
   // Per cluster: outcome of the last solve.
   std::vector<int> iterations, worst;
@@ -641,6 +645,14 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     L.dynamic.push_back(std::move(d));
     L.clusters.push_back(cl);
   }
+  L.atom_begin.push_back(0);
+  for (const auto& cl : L.clusters) {
+    for (int p = cl.begin; p < cl.end; ++p)
+      for (int atom : {L.atom_i[p], L.atom_j[p]})
+        if (std::find(L.atoms.begin() + L.atom_begin.back(), L.atoms.end(), atom) == L.atoms.end())
+          L.atoms.push_back(atom);
+    L.atom_begin.push_back(static_cast<int>(L.atoms.size()));
+  }
   layout_ = std::move(layout);
 
   work_ = std::make_unique<Workspace>();
@@ -649,6 +661,8 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
   ws.r_ref.resize(3, n);
   ws.r_cur.resize(3, n);
   ws.image.resize(3, n);
+  ws.atom_r.setZero(3, n_atoms);
+  ws.atom_d.setZero(3, n_atoms);
   ws.g.resize(n);
   ws.delta.resize(n);
   ws.lambda.resize(n);
@@ -658,6 +672,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
   ws.deviation.assign(nc, 0.0);
   ws.failed.assign(nc, 0);
   ws.singular.assign(nc, 0);
+  ws.solves.resize(nc);
 }
 
 Constraints::Constraints() = default;
@@ -848,6 +863,163 @@ void Constraints::project_onto_kernel(const Factorization& s, const Eigen::Vecto
     }
   }
 }
+
+template <class Solve>
+Constraints::ClusterSolve Constraints::copy_then_solve_clusters(const Coords& in, Coords& out, Solve&& solve) const {
+  const Layout& L = *layout_;
+  out.resize(3, n_atoms_);
+  std::vector<ClusterSolve>& outcome = work_->solves;
+  std::fill(outcome.begin(), outcome.end(), ClusterSolve{});
+  const int nc = static_cast<int>(L.clusters.size());
+#pragma omp parallel if (n_atoms_ > kParallelMin)
+  {
+#pragma omp for schedule(static)
+    for (int i = 0; i < n_atoms_; ++i) out.col(i) = in.col(i);
+#pragma omp for schedule(guided)
+    for (int c = 0; c < nc; ++c)
+      solve(c, L.atoms.data() + L.atom_begin[c], L.atom_begin[c + 1] - L.atom_begin[c], outcome[c]);
+  }
+  ClusterSolve all;
+  for (const auto& c : outcome) {
+    all.iterations = std::max(all.iterations, c.iterations);
+    all.residual = std::max(all.residual, c.residual);
+    all.converged = all.converged && c.converged;
+  }
+  return all;
+}
+
+Constraints::ClusterSolve Constraints::closest_point(const Coords& y, const Eigen::VectorXd& w, double tolerance,
+                                                     int max_iterations, Coords& x, Eigen::VectorXd& theta,
+                                                     Factorization& s) const {
+  if (empty()) {
+    x = y;
+    theta.resize(0);
+    return {};
+  }
+  const Layout& L = *layout_;
+  L.check_coords(y, "y");
+  theta.setZero(size());
+  Factorization::Impl& f = *s.impl_;
+  f.factorized = false;
+  f.bind(layout_);
+  const double* wp = L.weights(w);
+  Workspace& ws = *work_;
+  Coords &r1 = ws.atom_r, &dx = ws.atom_d;
+  int singular = -1;
+  const ClusterSolve all = copy_then_solve_clusters(y, x, [&](int c, const int* atom, int n_cluster_atoms,
+                                                               ClusterSolve& out) {
+    const auto& cl = L.clusters[c];
+    double* rhs = ws.delta.data() + cl.begin;
+    double change = std::numeric_limits<double>::infinity();
+    while (change > tolerance) {
+      if (out.iterations == max_iterations || (out.iterations > 0 && !std::isfinite(change))) {
+        out.converged = false;
+        break;
+      }
+      ++out.iterations;
+      // R1 = x + WGᵀθ − y,  R2 = g(x);  dθ = S⁻¹(R2 − G R1),  dx = −R1 − WGᵀdθ.
+      for (int k = 0; k < n_cluster_atoms; ++k) r1.col(atom[k]) = x.col(atom[k]) - y.col(atom[k]);
+      for (int p = cl.begin; p < cl.end; ++p) {
+        f.r_left.col(p) = L.bond(x, p);
+        L.move_along_bond(p, f.r_left.col(p), -theta[L.original[p]], wp, r1);
+      }
+      if (!f.factor(cl, f.r_left, f.r_left, wp, true)) {
+#pragma omp critical(vimd_constraints_singular)
+        singular = std::max(singular, c);
+        break;
+      }
+      for (int p = cl.begin; p < cl.end; ++p) {
+        const Vec3& r = f.r_left.col(p);
+        rhs[p - cl.begin] = 0.5 * (r.squaredNorm() - L.length[p] * L.length[p]) -
+                            r.dot(r1.col(L.atom_i[p]) - r1.col(L.atom_j[p]));
+      }
+      f.solve(cl, rhs);
+      for (int k = 0; k < n_cluster_atoms; ++k) dx.col(atom[k]) = -r1.col(atom[k]);
+      for (int p = cl.begin; p < cl.end; ++p) {
+        L.move_along_bond(p, f.r_left.col(p), rhs[p - cl.begin], wp, dx);
+        theta[L.original[p]] += rhs[p - cl.begin];
+      }
+      change = 0;
+      for (int k = 0; k < n_cluster_atoms; ++k) {
+        x.col(atom[k]) += dx.col(atom[k]);
+        change = std::max(change, dx.col(atom[k]).cwiseAbs().maxCoeff());
+      }
+      if (std::isnan(change)) change = std::numeric_limits<double>::infinity();
+    }
+    out.residual = change;
+  });
+  if (singular >= 0) L.throw_singular(singular);
+  f.symmetric = true;
+  f.factorized = true;
+  return all;
+}
+
+Constraints::ClusterSolve Constraints::pull_back(const Coords& x, const Eigen::VectorXd& theta, const Factorization& s,
+                                                 const Eigen::VectorXd& w, const Coords& p, double tolerance,
+                                                 int max_sweeps, Coords& p_hat) const {
+  if (empty()) {
+    p_hat = p;
+    return {};
+  }
+  const Layout& L = *layout_;
+  L.check_coords(x, "x");
+  L.check_coords(p, "p");
+  Factorization::Impl& f = *s.impl_;
+  if (!f.factorized || f.layout != layout_)
+    throw std::logic_error("Constraints::pull_back needs closest_point's factorisation of these constraints");
+  const double* wp = L.weights(w);
+  Workspace& ws = *work_;
+  Coords &r1 = ws.atom_r, &scaled = ws.atom_d;
+  return copy_then_solve_clusters(p, p_hat, [&](int c, const int* atom, int n_cluster_atoms, ClusterSolve& out) {
+    const auto& cl = L.clusters[c];
+    double* b = ws.lambda.data() + cl.begin;
+    double* db = ws.delta.data() + cl.begin;
+    for (int q = cl.begin; q < cl.end; ++q) {
+      ws.r_cur.col(q) = L.bond(x, q);
+      b[q - cl.begin] = 0;
+    }
+    out.converged = false;
+    while (out.iterations < max_sweeps) {
+      ++out.iterations;
+      // r1 = p − (I + Σθ_a H_a W) p̂ − Gᵀb,  r2 = −G W p̂;
+      // correction from [[I, Gᵀ], [G W, 0]]: db = S⁻¹(G W r1 − r2), dp = r1 − Gᵀ db.
+      for (int k = 0; k < n_cluster_atoms; ++k) {
+        scaled.col(atom[k]) = wp[atom[k]] * p_hat.col(atom[k]);
+        r1.col(atom[k]) = p.col(atom[k]) - p_hat.col(atom[k]);
+      }
+      for (int q = cl.begin; q < cl.end; ++q) {
+        const int i = L.atom_i[q], j = L.atom_j[q];
+        const Vec3& r = ws.r_cur.col(q);
+        const Vec3 bent = theta[L.original[q]] * (scaled.col(i) - scaled.col(j)) + b[q - cl.begin] * r;
+        r1.col(i) -= bent;
+        r1.col(j) += bent;
+      }
+      for (int q = cl.begin; q < cl.end; ++q) {
+        const int i = L.atom_i[q], j = L.atom_j[q];
+        const Vec3& r = ws.r_cur.col(q);
+        db[q - cl.begin] = r.dot(scaled.col(i) - scaled.col(j)) + r.dot(wp[i] * r1.col(i) - wp[j] * r1.col(j));
+      }
+      f.solve(cl, db);
+      for (int q = cl.begin; q < cl.end; ++q) {
+        b[q - cl.begin] += db[q - cl.begin];
+        const Vec3 moved = db[q - cl.begin] * ws.r_cur.col(q);
+        r1.col(L.atom_i[q]) -= moved;
+        r1.col(L.atom_j[q]) += moved;
+      }
+      double size = 0;
+      for (int k = 0; k < n_cluster_atoms; ++k) {
+        p_hat.col(atom[k]) += r1.col(atom[k]);
+        size = std::max(size, r1.col(atom[k]).cwiseAbs().maxCoeff());
+      }
+      out.residual = std::isnan(size) ? std::numeric_limits<double>::infinity() : size;
+      if (out.residual <= tolerance) {
+        out.converged = true;
+        break;
+      }
+    }
+  });
+}
+
 
 void Constraints::Factorization::solve(Eigen::VectorXd& rhs) const {
   if (!impl_->layout) {

@@ -75,6 +75,24 @@ class Constraints {
   // these w): the W-orthogonal projection of u onto ker G. μ into mu.
   void project_onto_kernel(const Factorization& s, const Eigen::VectorXd& w, Coords& u, Eigen::VectorXd& mu) const;
 
+  // The closest-point projection x = P(y) of the variational integrator and its pull-back, each
+  // cluster iterated on its own (its atoms are no other cluster's) until its update is at most
+  // `tolerance` (max abs over its atoms); atoms under no constraint are copied. W = diag(w).
+  struct ClusterSolve {
+    int iterations = 0;   // the most any cluster took
+    double residual = 0;  // the largest last update
+    bool converged = true;
+  };
+  // y = x + W G(x)ᵀθ, g(x) = 0, by Newton with the Jacobian [[I, WGᵀ], [G, 0]] at the iterate.
+  // θ into theta; S = G W Gᵀ at each cluster's last iterate before x into s.
+  ClusterSolve closest_point(const Coords& y, const Eigen::VectorXd& w, double tolerance, int max_iterations,
+                             Coords& x, Eigen::VectorXd& theta, Factorization& s) const;
+  // p̂ = p·DP(y) at x = P(y), with θ and s from closest_point:
+  // [[I + Σθ_a H_a W, Gᵀ], [G W, 0]] [p̂; b] = [p; 0], by sweeps preconditioned with s.
+  ClusterSolve pull_back(const Coords& x, const Eigen::VectorXd& theta, const Factorization& s,
+                         const Eigen::VectorXd& w, const Coords& p, double tolerance, int max_sweeps,
+                         Coords& p_hat) const;
+
   // SHAKE/RATTLE position stage: q ← q + diag(w) G(q_ref)ᵀ λ with λ chosen so that every
   // constraint holds to a relative deviation | |r_a| − d_a | / d_a ≤ tolerance (the measure of
   // max_relative_deviation). Newton on λ per cluster (exact Jacobian G(q) W G(q_ref)ᵀ for small
@@ -107,6 +125,10 @@ class Constraints {
   // allocate. Those two methods must therefore not run concurrently on the same object.
   struct Workspace;
   std::unique_ptr<Workspace> work_;
+  // out = in at every atom, then solve(cluster, its atoms, their count, its outcome) for every
+  // cluster, in one parallel region; returns the outcomes combined.
+  template <class Solve>
+  ClusterSolve copy_then_solve_clusters(const Coords& in, Coords& out, Solve&& solve) const;
 };
 
 }  // namespace vimd

@@ -43,7 +43,8 @@ class Projection {
   Projection(const Constraints& constraints, const Eigen::VectorXd& inverse_mass, const std::string& kind);
 
   // Newton with the Jacobian [[I, W⁻¹Gᵀ], [G, 0]] at the current iterate (the Σθ_aH_a block is
-  // O(θ) and dropped, so convergence is linear with rate O(|θ|), G refreshed every iteration).
+  // O(θ) and dropped, so convergence is linear with rate O(|θ|), G refreshed every iteration),
+  // each cluster of constraints on its own (Constraints::closest_point).
   // Throws ConvergenceError("projection onto the constraints", step, ...) when it cannot converge.
   void project(const Coords& y, ProjectedPoint& out, long step);
   // p_hat = p·DP(y) at a point from project(); iterated to round-off with G W⁻¹ Gᵀ as the
@@ -56,9 +57,6 @@ class Projection {
   const Constraints& constraints_;
   Eigen::VectorXd inverse_weights_;  // W⁻¹ per atom
   double length_scale_ = 1;          // shortest constraint length, for the stopping test
-  // Scratch.
-  Coords r1_, dx_, scaled_;
-  Eigen::VectorXd g_, gr_, dtheta_, db_, b_;
 };
 
 }  // namespace vimd

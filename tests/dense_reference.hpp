@@ -222,6 +222,26 @@ inline DenseSystem triangle_and_atom(Vec<double>& q0, Vec<double>& v0) {
   return s;
 }
 
+// Two zig-zag chains of unit bonds, 6 and 18 atoms: the engine treats the first (5 constraints) as a
+// dense cluster and the second (17) as a sparse one; LJ between the chains' ends. Velocities zero.
+inline DenseSystem two_chains(Vec<double>& q0, Vec<double>& v0) {
+  DenseSystem s;
+  const int lengths[2] = {6, 18};
+  const double half_angle = 0.95;  // half the bond angle (~109°)
+  int first = 0;
+  for (int chain = 0; chain < 2; ++chain) {
+    for (int k = 0; k < lengths[chain]; ++k) {
+      s.mass.push_back(1.0 + 0.25 * ((first + k) % 3));
+      q0.insert(q0.end(), {k * std::sin(half_angle), (k % 2) * std::cos(half_angle), 2.5 * chain});
+      if (k > 0) s.bonds.push_back({first + k - 1, first + k, 1.0});
+    }
+    first += lengths[chain];
+  }
+  s.pairs = {{0, 6, 1.0, 1.0}, {5, 11, 1.0, 1.0}};
+  v0.assign(q0.size(), 0.0);
+  return s;
+}
+
 // ---------------------------------------------------------------- the vector field and the maps
 template <class T>
 struct FlowResult {

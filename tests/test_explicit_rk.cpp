@@ -27,6 +27,8 @@ Fixture make(const std::string& which) {
   Fixture f;
   if (which == "two_dimers")
     f.system = dense::two_dimers(f.q0, f.v0);
+  else if (which == "two_chains")
+    f.system = dense::two_chains(f.q0, f.v0);
   else
     f.system = dense::triangle_and_atom(f.q0, f.v0);
   f.engine = std::make_unique<dense::EngineProblem>(f.system);
@@ -218,7 +220,7 @@ TEST_P(ProjectionTest, ValueAndPullBackMatchDualNumbers) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, ProjectionTest,
-                         ::testing::Combine(::testing::Values("two_dimers", "triangle_and_atom"),
+                         ::testing::Combine(::testing::Values("two_dimers", "triangle_and_atom", "two_chains"),
                                             ::testing::Values("euclidean", "mass")),
                          [](const auto& info) { return std::get<0>(info.param) + "_" + std::get<1>(info.param); });
 
