@@ -12,8 +12,7 @@ TangentProjector::TangentProjector(const Constraints& constraints, Eigen::Vector
     : constraints_(constraints), inverse_weights_(std::move(inverse_weights)) {}
 
 void TangentProjector::set_point(const Coords& q) {
-  q_ = q;
-  if (!constraints_.empty()) constraints_.factorize(q_, q_, inverse_weights_, factor_);
+  if (!constraints_.empty()) constraints_.factorize(q, q, inverse_weights_, factor_);
 }
 
 void TangentProjector::apply(Coords& u, Eigen::VectorXd* mu) {

@@ -15,14 +15,12 @@ class TangentProjector {
  public:
   TangentProjector(const Constraints& constraints, Eigen::VectorXd inverse_weights);
   void set_point(const Coords& q);
-  const Coords& point() const { return q_; }
   // u ← projection of u; mu (optional) receives the multipliers (G W⁻¹ Gᵀ)⁻¹ G u.
   void apply(Coords& u, Eigen::VectorXd* mu = nullptr);
 
  private:
   const Constraints& constraints_;
   Eigen::VectorXd inverse_weights_;
-  Coords q_;
   Constraints::Factorization factor_;
   Eigen::VectorXd mu_;
 };
