@@ -121,8 +121,9 @@ class Constraints {
   // Factorizations made from it, so they stay valid when this object moves.
   struct Layout;
   std::shared_ptr<const Layout> layout_;
-  // Scratch for solve_positions / project_velocities, reused across calls so a step does not
-  // allocate. Those two methods must therefore not run concurrently on the same object.
+  // Scratch for solve_positions, project_velocities, closest_point and pull_back, reused across
+  // calls so a step does not allocate. These methods must therefore not run concurrently on the
+  // same object.
   struct Workspace;
   std::unique_ptr<Workspace> work_;
   // out = in at every atom, then solve(cluster, its atoms, their count, its outcome) for every
