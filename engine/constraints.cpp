@@ -812,19 +812,16 @@ void Constraints::constrain_acceleration(const Coords& q, const Coords& v, const
       singular = std::max(singular, c);
       continue;
     }
-    double local[kSmallMax];
-    double* x = cl.kind == Kind::Small ? local : f.dynamic[cl.slot].x.data();
+    double* x = work_->delta.data() + cl.begin;
     for (int k = 0; k < cl.size(); ++k) {
       const int p = cl.begin + k, i = L.atom_i[p], j = L.atom_j[p];
       x[k] = -f.r_left.col(p).dot(a.col(i) - a.col(j)) - (v.col(i) - v.col(j)).squaredNorm();
     }
     f.solve(cl, x);
     for (int k = 0; k < cl.size(); ++k) {
-      const int p = cl.begin + k, i = L.atom_i[p], j = L.atom_j[p];
+      const int p = cl.begin + k;
       lambda[L.original[p]] = x[k];
-      const Vec3 r = f.r_left.col(p) * x[k];
-      a.col(i) += wp[i] * r;
-      a.col(j) -= wp[j] * r;
+      L.move_along_bond(p, f.r_left.col(p), -x[k], wp, a);
     }
   }
   if (singular >= 0)
@@ -847,19 +844,16 @@ void Constraints::project_onto_kernel(const Factorization& s, const Eigen::Vecto
 #pragma omp parallel for schedule(guided) if (size() > kParallelMin)
   for (int c = 0; c < nc; ++c) {
     const auto& cl = L.clusters[c];
-    double local[kSmallMax];
-    double* x = cl.kind == Kind::Small ? local : f.dynamic[cl.slot].x.data();
+    double* x = work_->delta.data() + cl.begin;
     for (int k = 0; k < cl.size(); ++k) {
       const int p = cl.begin + k;
       x[k] = f.r_left.col(p).dot(u.col(L.atom_i[p]) - u.col(L.atom_j[p]));
     }
     f.solve(cl, x);
     for (int k = 0; k < cl.size(); ++k) {
-      const int p = cl.begin + k, i = L.atom_i[p], j = L.atom_j[p];
+      const int p = cl.begin + k;
       mu[L.original[p]] = x[k];
-      const Vec3 r = f.r_left.col(p) * x[k];
-      u.col(i) -= wp[i] * r;
-      u.col(j) += wp[j] * r;
+      L.move_along_bond(p, f.r_left.col(p), x[k], wp, u);
     }
   }
 }
@@ -1137,9 +1131,7 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
       for (int a = 0; a < m; ++a) delta[a] = -ws.g[b + a];
       f.solve(cl, delta);
       for (int a = 0; a < m; ++a) {
-        const int i = L.atom_i[b + a], j = L.atom_j[b + a];
-        q.col(i) += (wp[i] * delta[a]) * ws.r_ref.col(b + a);
-        q.col(j) -= (wp[j] * delta[a]) * ws.r_ref.col(b + a);
+        L.move_along_bond(b + a, ws.r_ref.col(b + a), -delta[a], wp, q);
         ws.lambda[b + a] += delta[a];
       }
       previous = size;

@@ -34,6 +34,7 @@ class Constraints {
   // max_a |r_a·(v_i − v_j)| / (d_a · max(1, |v_i − v_j|)): relative velocity-constraint residual.
   double max_velocity_residual(const Coords& q, const Coords& v) const;
 
+  // G and Gᵀ alone: the solves below fuse them; tests check those against these.
   // out_a = r_a(q)·(u_i − u_j)
   void apply_G(const Coords& q, const Coords& u, Eigen::VectorXd& out) const;
   // out += G(q)ᵀ λ, scaled per atom by w when w is non-empty (out += W Gᵀλ)
@@ -121,9 +122,9 @@ class Constraints {
   // Factorizations made from it, so they stay valid when this object moves.
   struct Layout;
   std::shared_ptr<const Layout> layout_;
-  // Scratch for solve_positions, project_velocities, closest_point and pull_back, reused across
-  // calls so a step does not allocate. These methods must therefore not run concurrently on the
-  // same object.
+  // Scratch for solve_positions, project_velocities, constrain_acceleration, project_onto_kernel,
+  // closest_point and pull_back, reused across calls so a step does not allocate. These methods
+  // must therefore not run concurrently on the same object.
   struct Workspace;
   std::unique_ptr<Workspace> work_;
   // out = in at every atom, then solve(cluster, its atoms, their count, its outcome) for every
