@@ -80,10 +80,13 @@ void excluded_hessian(const PairViewOf<Real>& d, const NeighborList::ExcludedPai
   }
 }
 
-// The i-halves in chunks of kHalfChunk, dealt to the threads in turn: early halves (a cluster
-// paired with all later ones) cost more per entry than late ones (fewer cache hits on their
-// j-clusters), so contiguous blocks of equal entry counts left one of two threads waiting 25 % of
-// the kernel time. The deal depends only on the thread count, as the summation order must.
+// The i-halves in chunks of kHalfChunk, dealt to the threads in rounds of nt chunks: early halves
+// (a cluster paired with all later ones) cost more per entry than late ones (fewer cache hits on
+// their j-clusters), so contiguous blocks of equal entry counts left one of two threads waiting
+// 25 % of the kernel time. The deal runs back and forth (thread 0 first, then last, in alternate
+// rounds): dealt always in the same direction, thread 0 took the costlier chunk of every round, 6 %
+// more kernel time than thread 1 of 2 (perf, water900). It depends only on the thread count, as
+// the summation order must.
 constexpr int kHalfChunk = 16;
 
 int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
@@ -91,7 +94,11 @@ int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk;
 // f(h0, h1) for the chunks of thread t of nt.
 template <class F>
 void for_thread_chunks(int n_halves, int t, int nt, F&& f) {
-  for (int c = t; c < half_chunks(n_halves); c += nt) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
+  const int chunks = half_chunks(n_halves);
+  for (int round_start = 0; round_start < chunks; round_start += nt) {
+    const int c = round_start + ((round_start / nt) % 2 == 0 ? t : nt - 1 - t);
+    if (c < chunks) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
+  }
 }
 
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
