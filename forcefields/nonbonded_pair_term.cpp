@@ -84,9 +84,9 @@ void excluded_hessian(const PairViewOf<Real>& d, const NeighborList::ExcludedPai
 // (a cluster paired with all later ones) cost more per entry than late ones (fewer cache hits on
 // their j-clusters), so contiguous blocks of equal entry counts left one of two threads waiting
 // 25 % of the kernel time. The deal runs back and forth (thread 0 first, then last, in alternate
-// rounds): dealt always in the same direction, thread 0 took the costlier chunk of every round, 6 %
-// more kernel time than thread 1 of 2 (perf, water900). It depends only on the thread count, as
-// the summation order must.
+// rounds): dealt always in the same direction, thread 0 took the costlier chunk of every round (perf
+// of vi on water900, 2 threads: up to 9 % more kernel samples on thread 0). It depends only on the
+// thread count, as the summation order must.
 constexpr int kHalfChunk = 16;
 
 int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
