@@ -368,7 +368,7 @@ void NonbondedPairTerm::run_parallel(std::vector<std::vector<Real>>& buffers, Pa
   const int n = list_.n_slots();
   buffers.resize(omp_get_max_threads());
   for (auto& b : buffers) b.resize(3 * static_cast<std::size_t>(n));
-  const auto& slot_atom = list_.slot_atom();
+  const auto& atom_slot = list_.atom_slot();
   // Small lists run on one thread: starting a team would cost more than the pairs.
   constexpr std::size_t kParallelEntries = 2048;
 #pragma omp parallel if (entries().size() >= kParallelEntries)
@@ -379,10 +379,11 @@ void NonbondedPairTerm::run_parallel(std::vector<std::vector<Real>>& buffers, Pa
     std::fill(buffer, buffer + 3 * static_cast<std::size_t>(n), Real(0));
     kernel(t, nt, buffer, buffer + n, buffer + 2 * n);
 #pragma omp barrier
+    // In atom order: out is then written in sequence (in slot order, its loads missed the cache:
+    // half the time of this loop on 4000 waters), and the buffers, just written, are still cached.
 #pragma omp for schedule(static)
-    for (int s = 0; s < n; ++s) {
-      const int a = slot_atom[s];
-      if (a < 0) continue;
+    for (int a = 0; a < n_atoms_; ++a) {
+      const int s = atom_slot[a];
       double sx = 0, sy = 0, sz = 0;
       for (int k = 0; k < nt; ++k) {
         const Real* b = buffers[k].data();
