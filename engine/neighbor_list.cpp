@@ -184,6 +184,9 @@ void NeighborList::bin_atoms(const Coords& q) {
       atom_slot_[sorted[k]] = slot;
     }
   }
+  padding_slots_.clear();
+  for (int s = 0; s < n_slots(); ++s)
+    if (slot_atom_[s] < 0) padding_slots_.push_back(s);
   cluster_occupancy_.assign(n_clusters_, 0u);
   // Padding sits far away, so that it is never near anything (nor the nearest).
   for (auto& w : slot_wrapped_) w.assign(slot_atom_.size(), kFarAway);
@@ -380,38 +383,35 @@ void NeighborList::collect_excluded_pairs() {
     }
 }
 
+template <class Real, class Value>
+void NeighborList::pack(Real* x, Real* y, Real* z, Value&& value) const {
+  // In atom order, so the per-atom arrays are read in sequence (in slot order their loads missed
+  // the cache); then the padding.
+#pragma omp for schedule(static) nowait
+  for (int a = 0; a < n_atoms_; ++a) {
+    const int s = atom_slot_[a];
+    const Vec3 v = value(a);
+    x[s] = static_cast<Real>(v[0]);
+    y[s] = static_cast<Real>(v[1]);
+    z[s] = static_cast<Real>(v[2]);
+  }
+#pragma omp for schedule(static)
+  for (std::size_t k = 0; k < padding_slots_.size(); ++k) {
+    const int s = padding_slots_[k];
+    x[s] = y[s] = z[s] = 0;
+  }
+}
+
 template <class Real>
 void NeighborList::pack_positions(const Coords& q, Real* x, Real* y, Real* z) const {
-  const int n = n_slots();
-#pragma omp for schedule(static)
-  for (int s = 0; s < n; ++s) {
-    const int a = slot_atom_[s];
-    if (a < 0) {
-      x[s] = y[s] = z[s] = 0;
-    } else {
-      x[s] = static_cast<Real>(q(0, a) - image_offset_(0, a));
-      y[s] = static_cast<Real>(q(1, a) - image_offset_(1, a));
-      z[s] = static_cast<Real>(q(2, a) - image_offset_(2, a));
-    }
-  }
+  pack(x, y, z, [&](int a) -> Vec3 { return q.col(a) - image_offset_.col(a); });
 }
 template void NeighborList::pack_positions(const Coords&, double*, double*, double*) const;
 template void NeighborList::pack_positions(const Coords&, float*, float*, float*) const;
 
 template <class Real>
 void NeighborList::pack_vectors(const Coords& u, Real* x, Real* y, Real* z) const {
-  const int n = n_slots();
-#pragma omp for schedule(static)
-  for (int s = 0; s < n; ++s) {
-    const int a = slot_atom_[s];
-    if (a < 0) {
-      x[s] = y[s] = z[s] = 0;
-    } else {
-      x[s] = static_cast<Real>(u(0, a));
-      y[s] = static_cast<Real>(u(1, a));
-      z[s] = static_cast<Real>(u(2, a));
-    }
-  }
+  pack(x, y, z, [&](int a) -> Vec3 { return u.col(a); });
 }
 template void NeighborList::pack_vectors(const Coords&, double*, double*, double*) const;
 template void NeighborList::pack_vectors(const Coords&, float*, float*, float*) const;

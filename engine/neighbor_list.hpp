@@ -97,6 +97,9 @@ class NeighborList {
   void compute_bounds();
   void search_pairs();
   void collect_excluded_pairs();
+  // x, y, z[slot of a] = value(a) for every atom a, and 0 at the padding (the packers' work).
+  template <class Real, class Value>
+  void pack(Real* x, Real* y, Real* z, Value&& value) const;
   // Entry masks of the two i-halves of i_cluster against j_cluster + shift, and each half's
   // nearest distance to it.
   void pair_masks(ClusterPairKernel kernel, int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2],
@@ -121,6 +124,7 @@ class NeighborList {
 
   int n_clusters_ = 0;
   std::vector<int> slot_atom_, atom_slot_;
+  std::vector<int> padding_slots_;  // slots that hold no atom
   std::vector<double> slot_wrapped_[3];      // wrapped build positions in slot order
   std::vector<unsigned> cluster_occupancy_;  // per cluster: bit k set if slot k holds an atom
   struct ClusterBits {
