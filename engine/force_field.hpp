@@ -33,8 +33,10 @@ class ForceTerm {
   // Where the force jumps at the cut-off: fixes which pairs interact to those inside it at *q, until
   // called with nullptr; every evaluation in between includes exactly these pairs, wherever they
   // move (each pair potential continued smoothly past the cut-off), and no others, so a crossing
-  // cannot make the force jump between evaluations. Where the force is continuous there, nothing
-  // changes: the truncated potential is smooth enough, and exact (see ForceField::fix_pair_set).
+  // cannot make the force jump between evaluations. Where the force is continuous there, the
+  // potential stays the truncated one, smooth enough and exact (see ForceField::fix_pair_set).
+  // Either way the evaluations in between are one step's, near *q: a term may visit a list cut to
+  // them (NonbondedPairTerm's step list), with the same results.
   virtual void fix_pair_set(const Coords* /*q*/) {}
   // Whether the term has single-precision kernels, and using them for forces and Hessian–vector
   // products until called with false: for the parts of a solve whose rounding the solve absorbs

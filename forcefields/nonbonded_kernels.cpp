@@ -48,8 +48,8 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfData<Real>& hi) 
 // pair arithmetic and of the force sums (float: the mixed-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched).
 template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real, bool kEnergies>
-void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0, int h1, Real* fx, Real* fy, Real* fz,
-                  double* half_lj, double* half_coulomb, std::uint32_t* inside_masks) {
+void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
+                  double* half_coulomb, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   const int lanes = V::lanes();
@@ -67,7 +67,7 @@ void force_halves(const PairViewOf<Real>& d, const std::uint32_t* masks, int h0,
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       const Vec3& shift = d.shifts[entry.shift];
-      const std::uint32_t mask = masks ? masks[e] : entry.mask;
+      const std::uint32_t mask = entry.mask;
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += lanes) {
         const int jb = entry.j_cluster * kC + js;
@@ -272,8 +272,8 @@ void mask_halves(const PairViewOf<Real>& d, int h0, int h1, double skip_from, st
 }
 
 template <class Real>
-using ForceKernelOf = void (*)(const PairViewOf<Real>&, const std::uint32_t*, int, int, Real*, Real*, Real*, double*,
-                               double*, std::uint32_t*);
+using ForceKernelOf = void (*)(const PairViewOf<Real>&, int, int, Real*, Real*, Real*, double*, double*,
+                               std::uint32_t*);
 
 template <bool kCoulomb, CoulombModifier C, class Real, bool kEnergies>
 ForceKernelOf<Real> force_kernel_of(VdwModifier m) {

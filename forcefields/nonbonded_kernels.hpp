@@ -37,20 +37,18 @@ using PairView = PairViewOf<double>;
 
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
-// on the thread count (a kernel without energies leaves them untouched). masks[e] selects the
-// pairs of entry e (null: the list's own masks); a pair
-// counts if it is selected and inside the view's cut-off. If inside_masks is not null,
+// on the thread count (a kernel without energies leaves them untouched). A pair counts if its
+// entry's mask lists it and it is inside the view's cut-off. If inside_masks is not null,
 // inside_masks[e] receives the bits of entry e's pairs that counted.
-using ForceKernel = void (*)(const PairView&, const std::uint32_t* masks, int h0, int h1, double* fx, double* fy,
-                             double* fz, double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
+using ForceKernel = void (*)(const PairView&, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
+                             double* half_coulomb, std::uint32_t* inside_masks);
 // The same in mixed precision: pairs computed and forces accumulated in single precision (the
 // energies of a half summed in double), as GROMACS's default build does; about twice the pairs
 // per vector. For dynamics that tolerate force errors of ~1e-6 relative (RATTLE, SHAKE, Verlet),
 // and for the variational solve's first iteration of a step, whose error the double-precision
 // iterations after it correct.
-using MixedForceKernel = void (*)(const PairViewOf<float>&, const std::uint32_t* masks, int h0, int h1, float* fx,
-                                  float* fy, float* fz, double* half_lj, double* half_coulomb,
-                                  std::uint32_t* inside_masks);
+using MixedForceKernel = void (*)(const PairViewOf<float>&, int h0, int h1, float* fx, float* fy, float* fz,
+                                  double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
 // 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm).
 using MaskKernel = void (*)(const PairView&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);

@@ -101,6 +101,14 @@ void for_thread_chunks(int n_halves, int t, int nt, F&& f) {
   }
 }
 
+// The step list's skin: twice the largest displacement from its start that the last step's
+// evaluations reached, times a margin for this step reaching further (water900, rk4 at 2 fs: the
+// reach, ~0.011 nm, changes by up to ~10 % from one step to the next; an evaluation beyond half the
+// skin costs another pruning). Never below kMinStepSkin, far above the rounding of
+// single-precision distances.
+constexpr double kStepReachMargin = 1.3;
+constexpr double kMinStepSkin = 0.005;  // nm
+
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
 constexpr double kAutoSearchSkinExtra = 0.4;  // nm
 
@@ -165,10 +173,20 @@ void NonbondedPairTerm::prepare(const Coords& q) {
   // A fixed pair set needs no new pairs, and a rebuild would renumber the entries it refers to.
   if (pair_set_fixed_) {
     refresh_layout();
-  } else if (!pruning()) {
-    list_.update(q, 0.5 * skin_);
+  } else if (step_list_) {
+    const double moved = max_displacement(q, step_at_);
+    step_reach_ = std::max(step_reach_, moved);
+    if (moved > 0.5 * step_skin_) prune_step_list(q, step_skin_after(moved));
+  } else {
+    keep_regular_list(q, 0.5 * skin_);
+  }
+}
+
+void NonbondedPairTerm::keep_regular_list(const Coords& q, double allowed) {
+  if (!pruning()) {
+    list_.update(q, allowed);
     refresh_layout();
-  } else if (prunes_ == 0 || max_displacement(q, pruned_at_) > 0.5 * skin_) {
+  } else if (prunes_ == 0 || max_displacement(q, pruned_at_) > allowed) {
     const double moved = list_.update(q, 0.5 * (list_.skin() - skin_));
     refresh_layout();
     prune(q, moved);
@@ -177,21 +195,28 @@ void NonbondedPairTerm::prepare(const Coords& q) {
 
 void NonbondedPairTerm::prune(const Coords& q, double moved_since_search) {
   const auto start = std::chrono::steady_clock::now();
-  const auto& entries = list_.entries();
-  const auto& half_start = list_.half_start();
-  prune_masks_.resize(entries.size());
   const double range = list_.cutoff() + skin_;
   // Since the search no pair came closer by more than twice the largest displacement: an entry
   // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
-  const double skip_from = range + 2 * moved_since_search;
-  // Mixed precision prunes on single-precision positions, over a range widened by a bound on their
-  // rounding (coordinates and shifts below `magnitude`; a few roundings of each difference), so
-  // that every pair truly within the range is kept.
+  narrow(list_.entries(), list_.half_start(), q, range, range + 2 * moved_since_search, mixed_, pruned_entries_,
+         pruned_half_start_);
+  pruned_at_ = q;
+  ++prunes_;
+  prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void NonbondedPairTerm::narrow(const std::vector<NeighborList::Entry>& from, const std::vector<int>& from_start,
+                               const Coords& q, double range, double skip_from, bool single,
+                               std::vector<NeighborList::Entry>& to, std::vector<int>& to_start) {
+  prune_masks_.resize(from.size());
+  // Single-precision distances are compared with a range widened by a bound on their rounding
+  // (coordinates and shifts below `magnitude`; a few roundings of each difference), so that every
+  // pair truly within the range is kept.
   const double magnitude = max_abs_coordinate(q) + 2 * list_.box().length.maxCoeff() + range;
   const double float_range = range + 16 * std::numeric_limits<float>::epsilon() * magnitude;
   auto view_of = [&](auto view, double kept_range) {
-    view.entries = entries.data();
-    view.half_start = half_start.data();
+    view.entries = from.data();
+    view.half_start = from_start.data();
     view.cutoff2 = kept_range * kept_range;
     return view;
   };
@@ -200,48 +225,65 @@ void NonbondedPairTerm::prune(const Coords& q, double moved_since_search) {
   const MaskKernel kernel = simd::mask_kernel();
   const MixedMaskKernel float_kernel = simd::mixed_mask_kernel();
   const int n_halves = list_.n_halves();
-  pruned_half_start_.resize(n_halves + 1);
-  pruned_half_start_[0] = 0;
+  to_start.resize(n_halves + 1);
+  to_start[0] = 0;
   std::vector<int> chunk_kept(half_chunks(n_halves) + 1, 0);
   constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
-  // Each thread prunes its chunks of halves and counts what each keeps; the chunks are then
-  // copied into place in half order (the pruned list does not depend on the thread count).
-#pragma omp parallel if (entries.size() >= kParallelEntries)
+  // Each thread narrows its chunks of halves and counts what each keeps; the chunks are then
+  // copied into place in half order (the result does not depend on the thread count).
+#pragma omp parallel if (from.size() >= kParallelEntries)
   {
-    if (mixed_)
+    if (single)
       list_.pack_positions(q, mixed_slots_.x.data(), mixed_slots_.y.data(), mixed_slots_.z.data());
     else
       list_.pack_positions(q, slots_.x.data(), slots_.y.data(), slots_.z.data());
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
-      if (mixed_)
+      if (single)
         float_kernel(float_view, h0, h1, skip_from, prune_masks_.data());
       else
         kernel(view, h0, h1, skip_from, prune_masks_.data());
       int kept = 0;
-      for (int e = half_start[h0]; e < half_start[h1]; ++e) kept += prune_masks_[e] != 0;
+      for (int e = from_start[h0]; e < from_start[h1]; ++e) kept += prune_masks_[e] != 0;
       chunk_kept[h0 / kHalfChunk + 1] = kept;
     });
 #pragma omp barrier
 #pragma omp single
     {
       std::partial_sum(chunk_kept.begin(), chunk_kept.end(), chunk_kept.begin());
-      pruned_entries_.resize(chunk_kept.back());
+      to.resize(chunk_kept.back());
     }
     for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
       int out = chunk_kept[h0 / kHalfChunk];
       for (int h = h0; h < h1; ++h) {
-        for (int e = half_start[h]; e < half_start[h + 1]; ++e)
+        for (int e = from_start[h]; e < from_start[h + 1]; ++e)
           if (prune_masks_[e] != 0) {
-            pruned_entries_[out] = entries[e];
-            pruned_entries_[out++].mask = prune_masks_[e];
+            to[out] = from[e];
+            to[out++].mask = prune_masks_[e];
           }
-        pruned_half_start_[h + 1] = out;
+        to_start[h + 1] = out;
       }
     });
   }
-  pruned_at_ = q;
-  ++prunes_;
+}
+
+double NonbondedPairTerm::step_skin_after(double reach) const {
+  if (reach < 0) return 0.5 * skin_;  // no step yet
+  return std::clamp(2 * kStepReachMargin * reach, kMinStepSkin, skin_);
+}
+
+void NonbondedPairTerm::prune_step_list(const Coords& q, double skin) {
+  step_list_ = false;
+  // The regular list must then hold every pair within cut-off + skin at q.
+  keep_regular_list(q, 0.5 * (skin_ - skin));
+  const auto start = std::chrono::steady_clock::now();
+  // Double-precision distances: the fixed pair set is exactly the pairs inside the cut-off at q.
+  narrow(regular_entries(), regular_half_start(), q, list_.cutoff() + skin, INFINITY, false, step_entries_,
+         step_half_start_);
+  step_list_ = true;
+  step_at_ = q;
+  step_skin_ = skin;
+  ++step_prunes_;
   prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -283,20 +325,20 @@ bool NonbondedPairTerm::lists_pair(int a, int b) const {
 }
 
 void NonbondedPairTerm::fix_pair_set(const Coords* q) {
-  pair_set_fixed_ = false;
-  if (!q || force_continuous_at_cutoff_) return;
-  prepare(*q);
-  fixed_masks_.resize(entries().size());
-  const PairView view = pair_view<double>();
-  const MaskKernel kernel = simd::mask_kernel();
-  constexpr std::size_t kParallelEntries = 2048;  // as in run_parallel
-#pragma omp parallel if (entries().size() >= kParallelEntries)
-  {
-    list_.pack_positions(*q, slots_.x.data(), slots_.y.data(), slots_.z.data());
-    for_thread_chunks(list_.n_halves(), omp_get_thread_num(), omp_get_num_threads(),
-                      [&](int h0, int h1) { kernel(view, h0, h1, INFINITY, fixed_masks_.data()); });
+  if (step_list_) {
+    step_list_ = false;
+    ++step_scopes_;
+    last_reach_ = step_reach_;
   }
-  pair_set_fixed_ = true;
+  pair_set_fixed_ = false;
+  if (!q) return;
+  step_reach_ = 0;
+  if (force_continuous_at_cutoff_) {
+    prune_step_list(*q, step_skin_after(last_reach_));
+  } else {
+    prune_step_list(*q, 0);
+    pair_set_fixed_ = true;
+  }
 }
 
 void NonbondedPairTerm::set_single_precision(bool on) {
@@ -429,7 +471,6 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
   double* half_lj = partial_energies_.data();
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
-  const std::uint32_t* masks = pair_set_fixed_ ? fixed_masks_.data() : nullptr;
   // A Hessian–vector product reuses only masks a pass of its own precision recorded.
   std::uint32_t* inside_masks = hessian_requested_ && !pair_set_fixed_
                                     ? record_inside_masks(q, std::is_same_v<Real, float>).data()
@@ -437,7 +478,7 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
   run_parallel(slots.thread_buffers, [&] { list_.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
                [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
                  for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
-                   pair_kernel(view, masks, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
+                   pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
                  });
                  for (int b = t; b < n_blocks; b += nt)
                    block_coulomb[b] = excluded_forces(view, excluded, cutoff2_, b * kExcludedBlock,
@@ -472,10 +513,9 @@ void NonbondedPairTerm::add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel 
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
-  const std::uint32_t* masks =
-      pair_set_fixed_ ? fixed_masks_.data() : find_inside_masks(q, std::is_same_v<Real, float>);
+  const std::uint32_t* masks = find_inside_masks(q, std::is_same_v<Real, float>);
   if (masks) {
-    if (!pair_set_fixed_) ++hessian_cache_hits_;
+    ++hessian_cache_hits_;
   } else {
     list_masks_.resize(entries().size());
     const auto& listed = entries();

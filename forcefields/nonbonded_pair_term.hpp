@@ -12,6 +12,14 @@
 // search is redone only when an atom has moved (search skin − skin)/2 since it ran, so the pruned
 // range, hence every pair inside the cut-off, is always covered: exact, like a single list.
 //
+// A third, for one variational step (fix_pair_set): its dozen evaluations stay within ~h·|v|max
+// of the step's start q̂, so a list pruned at q̂ to cut-off + step skin, a few hundredths of a nm,
+// serves them all. With skin 0.1 nm only ~43 % of the single-precision kernels' lanes were pairs
+// inside the cut-off (water900). The step skin is twice the largest displacement from q̂ of the
+// last step's evaluations, with a margin; an evaluation beyond half of it prunes again there, so
+// the list stays exact. Where the force jumps at the cut-off, the step list is the fixed pair set.
+// The dropped pairs would have added exact zeros: results are bitwise those of the wider list.
+//
 // Threads: each thread takes every nt-th chunk of i-half-clusters and accumulates into its own
 // force buffer; the buffers are summed per atom in thread order.
 // No atomics, no races. Energies are summed from per-half partials in a fixed order, so they do
@@ -41,7 +49,8 @@ class NonbondedPairTerm : public ForceTerm {
   bool has_single_precision() const override { return true; }
   void set_single_precision(bool on) override;
   long rebuilds() const override { return list_.builds(); }
-  long prunes() const override { return prunes_; }
+  // Prunings of the regular list and of step lists.
+  long prunes() const override { return prunes_ + step_prunes_; }
   // Searches and prunings.
   double rebuild_seconds() const override { return list_.build_seconds() + prune_seconds_; }
   void save(Carried& out) const override;
@@ -54,6 +63,8 @@ class NonbondedPairTerm : public ForceTerm {
   // Whether the pair list the kernels visit (the pruned list, if pruning) holds atoms a and b, in
   // any image. A linear scan, for tests.
   bool lists_pair(int a, int b) const;
+  // Entries of the list the kernels visit now (the step list inside a step), for tests and reports.
+  std::size_t visited_entries() const { return entries().size(); }
   // Hessian–vector products that reused the cut-off masks of an earlier force evaluation.
   long hessian_cache_hits() const { return hessian_cache_hits_; }
 
@@ -86,11 +97,29 @@ class NonbondedPairTerm : public ForceTerm {
   bool pruning() const { return list_.skin() > skin_; }
   // moved_since_search: the largest displacement from the search's positions to q.
   void prune(const Coords& q, double moved_since_search);
-  // The list the kernels run over: the pruned one, or the searched one without pruning.
-  const std::vector<NeighborList::Entry>& entries() const { return pruning() ? pruned_entries_ : list_.entries(); }
-  const std::vector<int>& half_start() const { return pruning() ? pruned_half_start_ : list_.half_start(); }
+  // The list evaluations outside a step use: the pruned one, or the searched one without pruning.
+  // Its buffer is skin_ either way.
+  const std::vector<NeighborList::Entry>& regular_entries() const {
+    return pruning() ? pruned_entries_ : list_.entries();
+  }
+  const std::vector<int>& regular_half_start() const { return pruning() ? pruned_half_start_ : list_.half_start(); }
+  // The list the kernels run over: the step list inside a step, else the regular one.
+  const std::vector<NeighborList::Entry>& entries() const { return step_list_ ? step_entries_ : regular_entries(); }
+  const std::vector<int>& half_start() const { return step_list_ ? step_half_start_ : regular_half_start(); }
+  // Searches or prunes the regular list unless every atom is within `allowed` of where it was
+  // pruned (searched, without pruning), so that it holds every pair within cut-off + skin − 2·allowed at q.
+  void keep_regular_list(const Coords& q, double allowed);
+  // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
+  // those pairs, into `to` in half order. Entries whose `nearest` is at least skip_from are dropped
+  // unseen. single: compare single-precision distances (the range is widened by their rounding).
+  void narrow(const std::vector<NeighborList::Entry>& from, const std::vector<int>& from_start, const Coords& q,
+              double range, double skip_from, bool single, std::vector<NeighborList::Entry>& to,
+              std::vector<int>& to_start);
+  // The step list at q with buffer `skin` (0: the pairs inside the cut-off).
+  void prune_step_list(const Coords& q, double skin);
+  double step_skin_after(double reach) const;
   // Changes whenever entries() does (masks and caches refer to its entry numbers).
-  long list_version() const { return list_.builds() + prunes_; }
+  long list_version() const { return list_.builds() + prunes_ + step_prunes_ + step_scopes_; }
   // Slot-ordered arrays in one precision: double always, float as well for mixed precision or
   // once single precision was asked for.
   template <class Real>
@@ -139,7 +168,7 @@ class NonbondedPairTerm : public ForceTerm {
   NeighborList list_;
   std::vector<NeighborList::Entry> pruned_entries_;
   std::vector<int> pruned_half_start_;
-  std::vector<std::uint32_t> prune_masks_;  // per searched entry
+  std::vector<std::uint32_t> prune_masks_;  // per entry of the list being narrowed
   Coords pruned_at_;
   long prunes_ = 0;
   double prune_seconds_ = 0;
@@ -156,7 +185,15 @@ class NonbondedPairTerm : public ForceTerm {
   // enough for the solve without fixing the pair set, which then stays the true truncated one.
   bool force_continuous_at_cutoff_ = false;
   bool pair_set_fixed_ = false;
-  std::vector<std::uint32_t> fixed_masks_;  // per list entry: the fixed set's pairs
+  // The step list (see the top of this file), in use between fix_pair_set(q) and fix_pair_set(nullptr).
+  bool step_list_ = false;
+  std::vector<NeighborList::Entry> step_entries_;
+  std::vector<int> step_half_start_;
+  Coords step_at_;
+  double step_skin_ = 0;   // nm; 0 with a fixed pair set, whose masks alone decide
+  double step_reach_ = 0;  // largest displacement from the step's start of its evaluations so far
+  double last_reach_ = -1;  // the same for the last step (< 0: no step yet)
+  long step_prunes_ = 0, step_scopes_ = 0;
 };
 
 }  // namespace vimd

@@ -34,8 +34,11 @@ struct Reference {
   Coords f, hu;
 };
 
+// pairs_at: a pair (not excluded) counts if it is inside the cut-off there (default: at q), as
+// between ForceTerm::fix_pair_set(pairs_at) and its release where the force jumps at the cut-off.
 template <VdwModifier M>
-Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u) {
+Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u,
+                      const Coords* pairs_at = nullptr) {
   const LjConstants& lj = term.lj_constants();
   const ReactionField& rf = term.reaction_field();
   const double rc2 = lj.cutoff * lj.cutoff;
@@ -51,10 +54,12 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
     for (int j = i + 1; j < q.cols(); ++j) {
       const Vec3 d = s.box.minimum_image(q.col(i) - q.col(j));
       const double r2 = d.squaredNorm();
-      if (r2 >= rc2) continue;
+      const bool excluded = std::binary_search(s.exclusions[i].begin(), s.exclusions[i].end(), j);
+      const bool counts = !excluded && pairs_at ? s.box.minimum_image(pairs_at->col(i) - pairs_at->col(j)).squaredNorm() < rc2
+                                                : r2 < rc2;
+      if (!counts) continue;
       const double qq = rf.prefactor * s.charge[i] * s.charge[j];
       const Vec3 du = u.col(i) - u.col(j);
-      const bool excluded = std::binary_search(s.exclusions[i].begin(), s.exclusions[i].end(), j);
       double v = 0, g = 0, a = 0, b = 0;
       if (excluded) {
         if (!coulomb) continue;
@@ -94,16 +99,17 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
   return ref;
 }
 
-Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u) {
+Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u,
+                      const Coords* pairs_at = nullptr) {
   switch (term.vdw_modifier()) {
     case VdwModifier::none:
-      return brute_force<VdwModifier::none>(term, s, q, u);
+      return brute_force<VdwModifier::none>(term, s, q, u, pairs_at);
     case VdwModifier::potential_shift:
-      return brute_force<VdwModifier::potential_shift>(term, s, q, u);
+      return brute_force<VdwModifier::potential_shift>(term, s, q, u, pairs_at);
     case VdwModifier::force_switch:
-      return brute_force<VdwModifier::force_switch>(term, s, q, u);
+      return brute_force<VdwModifier::force_switch>(term, s, q, u, pairs_at);
     case VdwModifier::potential_switch:
-      return brute_force<VdwModifier::potential_switch>(term, s, q, u);
+      return brute_force<VdwModifier::potential_switch>(term, s, q, u, pairs_at);
   }
   return {};
 }
@@ -118,10 +124,11 @@ Coords random_vectors(int n, std::mt19937_64& rng, double length) {
   return d;
 }
 
-void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q, const std::string& what) {
+void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q, const std::string& what,
+                                const Coords* pairs_at = nullptr) {
   std::mt19937_64 rng(99);
   const Coords u = random_vectors(static_cast<int>(q.cols()), rng, 1.0);
-  const Reference ref = brute_force(term, s, q, u);
+  const Reference ref = brute_force(term, s, q, u, pairs_at);
   const auto got = testing::evaluate(term, q);
   const Coords hu = testing::hessian_vector(term, q, u);
   EXPECT_NEAR(got.energies[0], ref.lj, 1e-12 * ref.lj_scale) << what;
@@ -429,6 +436,76 @@ TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheSearchedList) {
   EXPECT_GT(now_inside, 20);
   EXPECT_EQ(term.rebuilds(), 1);
   EXPECT_EQ(term.prunes(), 2);
+}
+
+// A variational step (fix_pair_set with a continuous force at the cut-off) visits a step list, cut
+// to cut-off + a step skin around the step's start: the same results bit for bit as the regular
+// list (the dropped pairs add exact zeros), over fewer entries; an evaluation beyond half the step
+// skin prunes it again there.
+TEST(NeighborList, StepListGivesTheRegularResultsBitForBit) {
+  auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 41);
+  const auto config = testing::pair_config("potential-switch", "reaction-field", 0.0);
+  NonbondedPairTerm stepped(system, config), plain(system, config);
+  std::mt19937_64 rng(12);
+  const Coords u = random_vectors(static_cast<int>(q0.cols()), rng, 1.0);
+  auto expect_same = [&](const Coords& q, const std::string& what) {
+    const auto a = testing::evaluate(stepped, q), b = testing::evaluate(plain, q);
+    EXPECT_EQ(a.energies, b.energies) << what;
+    EXPECT_EQ((a.f - b.f).cwiseAbs().maxCoeff(), 0.0) << what;
+    EXPECT_EQ((testing::hessian_vector(stepped, q, u) - testing::hessian_vector(plain, q, u)).cwiseAbs().maxCoeff(), 0.0)
+        << what;
+  };
+  expect_same(q0, "start");
+  const std::size_t regular_entries = stepped.visited_entries();
+  Coords q = q0;
+  // Evaluations reaching 0.006 nm from each step's start; the first step's skin is half the pruned one's.
+  for (int step = 0; step < 3; ++step) {
+    const Coords start = q;
+    const long prunes = stepped.prunes();
+    stepped.fix_pair_set(&start);
+    EXPECT_LT(stepped.visited_entries(), regular_entries) << "step " << step;
+    for (double reach : {0.002, 0.006, 0.004}) {
+      q = start + random_vectors(static_cast<int>(q.cols()), rng, reach);
+      expect_same(q, "step " + std::to_string(step) + ", reach " + std::to_string(reach));
+      expect_matches_brute_force(stepped, system, q, "step list, step " + std::to_string(step));
+    }
+    EXPECT_EQ(stepped.prunes(), prunes + 1) << "step " << step << ": one step list, no regular pruning";
+    stepped.fix_pair_set(nullptr);
+    EXPECT_EQ(stepped.visited_entries(), plain.visited_entries()) << "released";
+  }
+  // The last step reached 0.006 nm: this one's skin is 2.6 x 0.006 nm, and an evaluation 0.012 nm
+  // away prunes again (still within the pruned list's half skin: no regular pruning).
+  const Coords start = q;
+  const long prunes = stepped.prunes();
+  stepped.fix_pair_set(&start);
+  q = start + random_vectors(static_cast<int>(q.cols()), rng, 0.012);
+  expect_same(q, "beyond the step skin");
+  expect_matches_brute_force(stepped, system, q, "beyond the step skin");
+  EXPECT_EQ(stepped.prunes(), prunes + 2);
+  stepped.fix_pair_set(nullptr);
+  EXPECT_EQ(stepped.rebuilds(), 1);
+}
+
+// Where the force jumps at the cut-off, fix_pair_set(q) freezes the pairs inside it at q: at moved
+// positions the kernels sum exactly those pairs, each continued past the cut-off.
+TEST(NeighborList, FixedPairSetMatchesBruteForce) {
+  auto [system, q] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 43);
+  for (const char* modifier : {"potential-shift", "none"}) {
+    NonbondedPairTerm term(system, testing::pair_config(modifier, "reaction-field", 78.0));
+    std::mt19937_64 rng(13);
+    const Coords moved = q + random_vectors(static_cast<int>(q.cols()), rng, 0.02);
+    int crossed = 0;
+    const double rc = term.lj_constants().cutoff;
+    testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
+      crossed += (r < rc) != ((system.box.minimum_image(moved.col(i) - moved.col(j)).norm()) < rc);
+    });
+    ASSERT_GT(crossed, 10) << modifier;
+    testing::evaluate(term, q);
+    term.fix_pair_set(&q);
+    expect_matches_brute_force(term, system, moved, std::string(modifier) + ", pairs fixed at q", &q);
+    term.fix_pair_set(nullptr);
+    expect_matches_brute_force(term, system, moved, std::string(modifier) + ", released");
+  }
 }
 
 TEST(NeighborList, UnwrappedCoordinatesGiveTheSameResult) {
