@@ -277,8 +277,11 @@ void NonbondedPairTerm::prune_step_list(const Coords& q, double skin) {
   // The regular list must then hold every pair within cut-off + skin at q.
   keep_regular_list(q, 0.5 * (skin_ - skin));
   const auto start = std::chrono::steady_clock::now();
-  // Double-precision distances: the fixed pair set is exactly the pairs inside the cut-off at q.
-  narrow(regular_entries(), regular_half_start(), q, list_.cutoff() + skin, INFINITY, false, step_entries_,
+  // The fixed pair set (skin 0) is exactly the pairs inside the cut-off at q: double-precision
+  // distances. A buffered step list may be cut on the cheaper single-precision ones where those
+  // positions are kept anyway (narrow widens the range by their rounding).
+  const bool single = skin > 0 && (mixed_ || single_precision_asked_);
+  narrow(regular_entries(), regular_half_start(), q, list_.cutoff() + skin, INFINITY, single, step_entries_,
          step_half_start_);
   step_list_ = true;
   step_at_ = q;

@@ -441,49 +441,56 @@ TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheSearchedList) {
 // A variational step (fix_pair_set with a continuous force at the cut-off) visits a step list, cut
 // to cut-off + a step skin around the step's start: the same results bit for bit as the regular
 // list (the dropped pairs add exact zeros), over fewer entries; an evaluation beyond half the step
-// skin prunes it again there.
+// skin prunes it again there. Once single-precision positions are kept, the step list is cut on
+// them: the same results.
 TEST(NeighborList, StepListGivesTheRegularResultsBitForBit) {
-  auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 41);
-  const auto config = testing::pair_config("potential-switch", "reaction-field", 0.0);
-  NonbondedPairTerm stepped(system, config), plain(system, config);
-  std::mt19937_64 rng(12);
-  const Coords u = random_vectors(static_cast<int>(q0.cols()), rng, 1.0);
-  auto expect_same = [&](const Coords& q, const std::string& what) {
-    const auto a = testing::evaluate(stepped, q), b = testing::evaluate(plain, q);
-    EXPECT_EQ(a.energies, b.energies) << what;
-    EXPECT_EQ((a.f - b.f).cwiseAbs().maxCoeff(), 0.0) << what;
-    EXPECT_EQ((testing::hessian_vector(stepped, q, u) - testing::hessian_vector(plain, q, u)).cwiseAbs().maxCoeff(), 0.0)
-        << what;
-  };
-  expect_same(q0, "start");
-  const std::size_t regular_entries = stepped.visited_entries();
-  Coords q = q0;
-  // Evaluations reaching 0.006 nm from each step's start; the first step's skin is half the pruned one's.
-  for (int step = 0; step < 3; ++step) {
+  for (const bool single_cut : {false, true}) {
+    auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 41);
+    const auto config = testing::pair_config("potential-switch", "reaction-field", 0.0);
+    NonbondedPairTerm stepped(system, config), plain(system, config);
+    if (single_cut) {
+      stepped.set_single_precision(true);
+      stepped.set_single_precision(false);
+    }
+    std::mt19937_64 rng(12);
+    const Coords u = random_vectors(static_cast<int>(q0.cols()), rng, 1.0);
+    auto expect_same = [&](const Coords& q, const std::string& what) {
+      const auto a = testing::evaluate(stepped, q), b = testing::evaluate(plain, q);
+      EXPECT_EQ(a.energies, b.energies) << what;
+      EXPECT_EQ((a.f - b.f).cwiseAbs().maxCoeff(), 0.0) << what;
+      const Coords hu = testing::hessian_vector(stepped, q, u);
+      EXPECT_EQ((hu - testing::hessian_vector(plain, q, u)).cwiseAbs().maxCoeff(), 0.0) << what;
+    };
+    expect_same(q0, "start");
+    const std::size_t regular_entries = stepped.visited_entries();
+    Coords q = q0;
+    // Evaluations reaching 0.006 nm from each step's start; the first step's skin is half the pruned one's.
+    for (int step = 0; step < 3; ++step) {
+      const Coords start = q;
+      const long prunes = stepped.prunes();
+      stepped.fix_pair_set(&start);
+      EXPECT_LT(stepped.visited_entries(), regular_entries) << "step " << step;
+      for (double reach : {0.002, 0.006, 0.004}) {
+        q = start + random_vectors(static_cast<int>(q.cols()), rng, reach);
+        expect_same(q, "step " + std::to_string(step) + ", reach " + std::to_string(reach));
+        expect_matches_brute_force(stepped, system, q, "step list, step " + std::to_string(step));
+      }
+      EXPECT_EQ(stepped.prunes(), prunes + 1) << "step " << step << ": one step list, no regular pruning";
+      stepped.fix_pair_set(nullptr);
+      EXPECT_EQ(stepped.visited_entries(), plain.visited_entries()) << "released";
+    }
+    // The last step reached 0.006 nm: this one's skin is 2.6 x 0.006 nm, and an evaluation 0.012 nm
+    // away prunes again (still within the pruned list's half skin: no regular pruning).
     const Coords start = q;
     const long prunes = stepped.prunes();
     stepped.fix_pair_set(&start);
-    EXPECT_LT(stepped.visited_entries(), regular_entries) << "step " << step;
-    for (double reach : {0.002, 0.006, 0.004}) {
-      q = start + random_vectors(static_cast<int>(q.cols()), rng, reach);
-      expect_same(q, "step " + std::to_string(step) + ", reach " + std::to_string(reach));
-      expect_matches_brute_force(stepped, system, q, "step list, step " + std::to_string(step));
-    }
-    EXPECT_EQ(stepped.prunes(), prunes + 1) << "step " << step << ": one step list, no regular pruning";
+    q = start + random_vectors(static_cast<int>(q.cols()), rng, 0.012);
+    expect_same(q, "beyond the step skin");
+    expect_matches_brute_force(stepped, system, q, "beyond the step skin");
+    EXPECT_EQ(stepped.prunes(), prunes + 2);
     stepped.fix_pair_set(nullptr);
-    EXPECT_EQ(stepped.visited_entries(), plain.visited_entries()) << "released";
+    EXPECT_EQ(stepped.rebuilds(), 1);
   }
-  // The last step reached 0.006 nm: this one's skin is 2.6 x 0.006 nm, and an evaluation 0.012 nm
-  // away prunes again (still within the pruned list's half skin: no regular pruning).
-  const Coords start = q;
-  const long prunes = stepped.prunes();
-  stepped.fix_pair_set(&start);
-  q = start + random_vectors(static_cast<int>(q.cols()), rng, 0.012);
-  expect_same(q, "beyond the step skin");
-  expect_matches_brute_force(stepped, system, q, "beyond the step skin");
-  EXPECT_EQ(stepped.prunes(), prunes + 2);
-  stepped.fix_pair_set(nullptr);
-  EXPECT_EQ(stepped.rebuilds(), 1);
 }
 
 // Where the force jumps at the cut-off, fix_pair_set(q) freezes the pairs inside it at q: at moved
