@@ -142,8 +142,8 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
   }
 }
 
-// Per pair a u_ij + b (d·u_ij) d. Skipped rows contribute exact zeros, so the list's masks and a
-// force pass's inside masks give identical results. Real: as in force_halves.
+// Per pair a u_ij + b (d·u_ij) d, for exactly the pairs the masks select (no cut-off test here).
+// Real: as in force_halves.
 template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real>
 void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, const Real* uz,
                     const std::uint32_t* masks, int h0, int h1, Real* ox, Real* oy, Real* oz) {
@@ -182,7 +182,7 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
           if (bits == 0) continue;
           const V dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
-          const Mask inside = mask_from_bits<Real>(bits) & (r2 < d.cutoff2);
+          const Mask inside = mask_from_bits<Real>(bits);
           const V r2s = select(inside, r2, one);
           const V rinv = simd_rsqrt(r2s);
           const V rinv2 = rinv * rinv;

@@ -56,8 +56,8 @@ using MaskKernel = void (*)(const PairView&, int h0, int h1, double skip_from, s
 // caller's to cover, with a cut-off a little beyond the range it needs.
 using MixedMaskKernel = void (*)(const PairViewOf<float>&, int h0, int h1, double skip_from,
                                  std::uint32_t* inside_masks);
-// (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz); masks[e] selects the pairs of entry e (the
-// list's own masks, or the inside masks a force pass at the same positions recorded).
+// (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz), over the pairs masks[e] selects in entry e:
+// those that interact (inside masks of a force or mask pass); the kernel does not test the cut-off.
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
                                const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz);
 // The same in single precision, for the variational integrator's mixed-precision solve.

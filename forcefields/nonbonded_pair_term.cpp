@@ -516,15 +516,21 @@ void NonbondedPairTerm::add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel 
   const NeighborList::ExcludedPair* excluded = list_.excluded_pairs().data();
   const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
-  const std::uint32_t* masks = find_inside_masks(q, std::is_same_v<Real, float>);
-  if (masks) {
+  // The kernel takes the masks as the interacting pairs (it has no cut-off test of its own): a
+  // force pass's at these positions, or else each chunk's from the mask kernel just before it (with
+  // a fixed pair set the view's cut-off is infinite, so they are the set's pairs).
+  const std::uint32_t* cached = find_inside_masks(q, std::is_same_v<Real, float>);
+  if (cached)
     ++hessian_cache_hits_;
-  } else {
+  else
     list_masks_.resize(entries().size());
-    const auto& listed = entries();
-    for (std::size_t e = 0; e < list_masks_.size(); ++e) list_masks_[e] = listed[e].mask;
-    masks = list_masks_.data();
-  }
+  const std::uint32_t* masks = cached ? cached : list_masks_.data();
+  const auto mask_kernel = [] {
+    if constexpr (std::is_same_v<Real, float>)
+      return simd::mixed_mask_kernel();
+    else
+      return simd::mask_kernel();
+  }();
   run_parallel(
       slots.thread_buffers,
       [&] {
@@ -533,6 +539,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel 
       },
       [&](int t, int nt, Real* ox, Real* oy, Real* oz) {
         for_thread_chunks(list_.n_halves(), t, nt, [&](int h0, int h1) {
+          if (!cached) mask_kernel(view, h0, h1, INFINITY, list_masks_.data());
           pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });
         for (int b = t; b < n_blocks; b += nt)

@@ -71,11 +71,10 @@ class NonbondedPairTerm : public ForceTerm {
   // Reuse between the force and the Hessian–vector pass (no API needed): once a Hessian–vector
   // product has been asked for, every add_forces keeps, per list entry, which pairs were inside
   // the cut-off, for the last kHessianCacheSlots distinct positions (before that, force-only runs
-  // pay nothing). add_hessian_vector at bitwise the same positions (and the same list build) then
-  // visits only rows of pairs that interact, about 3/4 of the list for water, and gives results
-  // identical to the uncached pass. An integrator's reverse pass gets this by evaluating forces
-  // at its stage positions first, as the Runge–Kutta forward pass does. Costs ~1 MB per slot for
-  // 12k atoms.
+  // pay nothing). add_hessian_vector at bitwise the same positions (and the same list) takes them
+  // instead of finding the pairs inside the cut-off by a mask pass of its own first; the results
+  // are the same. An integrator's reverse pass gets this by evaluating forces at its stage
+  // positions first, as the Runge–Kutta forward pass does. Costs ~1 MB per slot for 12k atoms.
   static constexpr std::size_t kHessianCacheSlots = 16;
   VdwModifier vdw_modifier() const { return modifier_; }
   const LjConstants& lj_constants() const { return lj_; }
