@@ -570,12 +570,16 @@ std::vector<std::uint32_t>& NonbondedPairTerm::record_inside_masks(const Coords&
 }
 
 const std::uint32_t* NonbondedPairTerm::find_inside_masks(const Coords& q, bool single) {
+  // A single-precision product also takes a double-precision pass's masks (exact decisions, where
+  // its own could differ only for pairs within float rounding of the cut-off): the variational
+  // solve's products after double-precision stages then skip their mask pass.
+  InsideMasks* found = nullptr;
   for (auto& c : inside_cache_)
-    if (c.list_version == list_version() && c.single == single && same_positions(c.q, q)) {
-      c.last_used = ++cache_clock_;
-      return c.masks.data();
-    }
-  return nullptr;
+    if (c.list_version == list_version() && (c.single == single || (single && !c.single)) && same_positions(c.q, q))
+      if (!found || c.single == single) found = &c;
+  if (!found) return nullptr;
+  found->last_used = ++cache_clock_;
+  return found->masks.data();
 }
 
 bool NonbondedPairTerm::same_positions(const Coords& a, const Coords& b) {

@@ -73,7 +73,7 @@ class NonbondedPairTerm : public ForceTerm {
   // the cut-off, for the last kHessianCacheSlots distinct positions (before that, force-only runs
   // pay nothing). add_hessian_vector at bitwise the same positions (and the same list) takes them
   // instead of finding the pairs inside the cut-off by a mask pass of its own first; the results
-  // are the same. An integrator's reverse pass gets this by evaluating forces at its stage
+  // are the same (a single-precision product also takes a double-precision pass's masks). An integrator's reverse pass gets this by evaluating forces at its stage
   // positions first, as the Runge–Kutta forward pass does. Costs ~1 MB per slot for 12k atoms.
   static constexpr std::size_t kHessianCacheSlots = 16;
   VdwModifier vdw_modifier() const { return modifier_; }

@@ -190,6 +190,18 @@ void expect_single_precision_matches_brute_force(NonbondedPairTerm& term, const 
   f.setZero();
   term.add_forces(q, f, {});
   EXPECT_LT(relative_difference(f, ref.f), 1e-12) << what << ", double again";
+  // A single-precision product after a double-precision force pass at new positions takes its masks.
+  const Coords moved = q + random_vectors(static_cast<int>(q.cols()), rng, 1e-3);
+  const Reference moved_ref = brute_force(term, s, moved, u);
+  f.setZero();
+  term.add_forces(moved, f, {});
+  term.set_single_precision(true);
+  const long hits_before = term.hessian_cache_hits();
+  const double moved_error = relative_difference(testing::hessian_vector(term, moved, u), moved_ref.hu);
+  EXPECT_LT(moved_error, 1e-5) << what << ", double-precision masks";
+  EXPECT_GT(moved_error, 1e-12) << what << ", double-precision masks: is the single-precision HVP running?";
+  EXPECT_EQ(term.hessian_cache_hits(), hits_before + 1) << what;
+  term.set_single_precision(false);
 }
 
 const char* const kModifiers[] = {"none", "potential-shift", "force-switch", "potential-switch"};
