@@ -198,8 +198,9 @@ void NonbondedPairTerm::prune(const Coords& q, double moved_since_search) {
   const double range = list_.cutoff() + skin_;
   // Since the search no pair came closer by more than twice the largest displacement: an entry
   // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
-  narrow(list_.entries(), list_.half_start(), q, range, range + 2 * moved_since_search, mixed_, pruned_entries_,
-         pruned_half_start_);
+  // On single-precision positions where they are kept (cheaper; narrow covers their rounding).
+  narrow(list_.entries(), list_.half_start(), q, range, range + 2 * moved_since_search,
+         mixed_ || single_precision_asked_, pruned_entries_, pruned_half_start_);
   pruned_at_ = q;
   ++prunes_;
   prune_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
