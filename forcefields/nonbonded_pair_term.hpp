@@ -60,8 +60,8 @@ class NonbondedPairTerm : public ForceTerm {
   // Buffers of the pruned and the searched list (equal: no pruning), nm.
   double skin() const { return skin_; }
   double search_skin() const { return list_.skin(); }
-  // Whether the pair list the kernels visit (the pruned list, if pruning) holds atoms a and b, in
-  // any image. A linear scan, for tests.
+  // Whether the pair list the kernels visit (the step list inside a step, else the pruned list, if
+  // pruning) holds atoms a and b, in any image. A linear scan, for tests.
   bool lists_pair(int a, int b) const;
   // Entries of the list the kernels visit now (the step list inside a step), for tests and reports.
   std::size_t visited_entries() const { return entries().size(); }
@@ -73,8 +73,9 @@ class NonbondedPairTerm : public ForceTerm {
   // the cut-off, for the last kHessianCacheSlots distinct positions (before that, force-only runs
   // pay nothing). add_hessian_vector at bitwise the same positions (and the same list) takes them
   // instead of finding the pairs inside the cut-off by a mask pass of its own first; the results
-  // are the same (a single-precision product also takes a double-precision pass's masks). An integrator's reverse pass gets this by evaluating forces at its stage
-  // positions first, as the Runge–Kutta forward pass does. Costs ~1 MB per slot for 12k atoms.
+  // are the same (a single-precision product also takes a double-precision pass's masks). An
+  // integrator's reverse pass gets this by evaluating forces at its stage positions first, as the
+  // Runge–Kutta forward pass does. Costs ~1 MB per slot for 12k atoms.
   static constexpr std::size_t kHessianCacheSlots = 16;
   VdwModifier vdw_modifier() const { return modifier_; }
   const LjConstants& lj_constants() const { return lj_; }
@@ -106,7 +107,8 @@ class NonbondedPairTerm : public ForceTerm {
   const std::vector<NeighborList::Entry>& entries() const { return step_list_ ? step_entries_ : regular_entries(); }
   const std::vector<int>& half_start() const { return step_list_ ? step_half_start_ : regular_half_start(); }
   // Searches or prunes the regular list unless every atom is within `allowed` of where it was
-  // pruned (searched, without pruning), so that it holds every pair within cut-off + skin − 2·allowed at q.
+  // pruned (searched, without pruning), so that it holds every pair within
+  // cut-off + skin − 2·allowed at q.
   void keep_regular_list(const Coords& q, double allowed);
   // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
   // those pairs, into `to` in half order. Entries whose `nearest` is at least skip_from are dropped
@@ -184,7 +186,7 @@ class NonbondedPairTerm : public ForceTerm {
   // enough for the solve without fixing the pair set, which then stays the true truncated one.
   bool force_continuous_at_cutoff_ = false;
   bool pair_set_fixed_ = false;
-  // The step list (see the top of this file), in use between fix_pair_set(q) and fix_pair_set(nullptr).
+  // The step list (see the top of this file), in use from fix_pair_set(q) to fix_pair_set(nullptr).
   bool step_list_ = false;
   std::vector<NeighborList::Entry> step_entries_;
   std::vector<int> step_half_start_;

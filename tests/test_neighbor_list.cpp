@@ -55,8 +55,10 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
       const Vec3 d = s.box.minimum_image(q.col(i) - q.col(j));
       const double r2 = d.squaredNorm();
       const bool excluded = std::binary_search(s.exclusions[i].begin(), s.exclusions[i].end(), j);
-      const bool counts = !excluded && pairs_at ? s.box.minimum_image(pairs_at->col(i) - pairs_at->col(j)).squaredNorm() < rc2
-                                                : r2 < rc2;
+      // Excluded pairs (the reaction-field correction) always go by their current distance.
+      const bool fixed = pairs_at && !excluded;
+      const bool counts =
+          fixed ? s.box.minimum_image(pairs_at->col(i) - pairs_at->col(j)).squaredNorm() < rc2 : r2 < rc2;
       if (!counts) continue;
       const double qq = rf.prefactor * s.charge[i] * s.charge[j];
       const Vec3 du = u.col(i) - u.col(j);
