@@ -475,7 +475,7 @@ void NonbondedPairTerm::add_pair_forces(SlotArrays<Real>& slots, Kernel pair_ker
   double* half_lj = partial_energies_.data();
   double* half_coulomb = half_lj + n_halves;
   double* block_coulomb = half_coulomb + n_halves;
-  // A Hessian–vector product reuses only masks a pass of its own precision recorded.
+  // Hessian–vector products at these positions will reuse them (find_inside_masks says which precisions).
   std::uint32_t* inside_masks = hessian_requested_ && !pair_set_fixed_
                                     ? record_inside_masks(q, std::is_same_v<Real, float>).data()
                                     : nullptr;
@@ -518,13 +518,18 @@ void NonbondedPairTerm::add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel 
   const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list_.excluded_pairs().size()) : 0;
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   // The kernel takes the masks as the interacting pairs (it has no cut-off test of its own): a
-  // force pass's at these positions, or else each chunk's from the mask kernel just before it (with
-  // a fixed pair set the view's cut-off is infinite, so they are the set's pairs).
+  // force pass's at these positions; with a fixed pair set, the step list's own (its pairs); or
+  // else each chunk's from the mask kernel just before it.
   const std::uint32_t* cached = find_inside_masks(q, std::is_same_v<Real, float>);
-  if (cached)
+  const bool find_masks = !cached && !pair_set_fixed_;
+  if (cached) {
     ++hessian_cache_hits_;
-  else
-    list_masks_.resize(entries().size());
+  } else {
+    const auto& listed = entries();
+    list_masks_.resize(listed.size());
+    if (pair_set_fixed_)
+      for (std::size_t e = 0; e < listed.size(); ++e) list_masks_[e] = listed[e].mask;
+  }
   const std::uint32_t* masks = cached ? cached : list_masks_.data();
   const auto mask_kernel = [] {
     if constexpr (std::is_same_v<Real, float>)
@@ -540,7 +545,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(SlotArrays<Real>& slots, Kernel 
       },
       [&](int t, int nt, Real* ox, Real* oy, Real* oz) {
         for_thread_chunks(list_.n_halves(), t, nt, [&](int h0, int h1) {
-          if (!cached) mask_kernel(view, h0, h1, INFINITY, list_masks_.data());
+          if (find_masks) mask_kernel(view, h0, h1, INFINITY, list_masks_.data());
           pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });
         for (int b = t; b < n_blocks; b += nt)
@@ -576,7 +581,7 @@ const std::uint32_t* NonbondedPairTerm::find_inside_masks(const Coords& q, bool 
   // solve's products after double-precision stages then skip their mask pass.
   InsideMasks* found = nullptr;
   for (auto& c : inside_cache_)
-    if (c.list_version == list_version() && (c.single == single || (single && !c.single)) && same_positions(c.q, q))
+    if (c.list_version == list_version() && (single || !c.single) && same_positions(c.q, q))
       if (!found || c.single == single) found = &c;
   if (!found) return nullptr;
   found->last_used = ++cache_clock_;
