@@ -10,9 +10,9 @@
 #include <set>
 
 #include "engine/errors.hpp"
-#include "engine/gro.hpp"
+#include "engine/gromacs/gro.hpp"
 #include "engine/integrator.hpp"
-#include "engine/topology.hpp"
+#include "engine/gromacs/topology.hpp"
 
 namespace vimd {
 

@@ -9,8 +9,8 @@
 #include <string>
 
 #include "engine/errors.hpp"
-#include "engine/gro.hpp"
-#include "engine/trr.hpp"
+#include "engine/gromacs/gro.hpp"
+#include "engine/gromacs/trr.hpp"
 
 namespace vimd {
 namespace {

@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "engine/errors.hpp"
-#include "engine/gro.hpp"
+#include "engine/gromacs/gro.hpp"
 
 namespace fs = std::filesystem;
 using namespace vimd;

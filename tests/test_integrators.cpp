@@ -7,9 +7,9 @@
 #include <random>
 
 #include "engine/errors.hpp"
-#include "engine/gro.hpp"
+#include "engine/gromacs/gro.hpp"
 #include "engine/start_state.hpp"
-#include "engine/topology.hpp"
+#include "engine/gromacs/topology.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/rattle.hpp"
 #include "integrators/registry.hpp"

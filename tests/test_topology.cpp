@@ -10,7 +10,7 @@
 #include <tuple>
 
 #include "engine/errors.hpp"
-#include "engine/topology.hpp"
+#include "engine/gromacs/topology.hpp"
 #include "marked_line.hpp"
 
 namespace fs = std::filesystem;

@@ -6,7 +6,7 @@
 #include <fstream>
 #include <iterator>
 
-#include "engine/trr.hpp"
+#include "engine/gromacs/trr.hpp"
 
 namespace fs = std::filesystem;
 using namespace vimd;

@@ -10,8 +10,8 @@
 
 #include "engine/config.hpp"
 #include "engine/errors.hpp"
-#include "engine/gro.hpp"
-#include "engine/topology.hpp"
+#include "engine/gromacs/gro.hpp"
+#include "engine/gromacs/topology.hpp"
 
 namespace vimd::fuzz {
 namespace fs = std::filesystem;

@@ -27,7 +27,7 @@ def cli(*args):
 
 
 def read_trr_last_frame(path):
-    """Step, x, v, f of the last frame of a double-precision .trr (as engine/trr.cpp writes it)."""
+    """Step, x, v, f of the last frame of a double-precision .trr (as engine/gromacs/trr.cpp writes it)."""
     data = pathlib.Path(path).read_bytes()
     pos, frame = 0, None
     while pos < len(data):

@@ -1,4 +1,4 @@
-#include "engine/trr.hpp"
+#include "engine/gromacs/trr.hpp"
 
 #include <bit>
 #include <cerrno>

@@ -1,4 +1,4 @@
-#include "engine/gro.hpp"
+#include "engine/gromacs/gro.hpp"
 
 #include <cerrno>
 #include <charconv>
