@@ -14,6 +14,7 @@
 #include <set>
 
 #include "app/model.hpp"
+#include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "engine/observers.hpp"
 #include "engine/start_state.hpp"
@@ -40,91 +41,6 @@ std::unique_ptr<Model> load_and_warn(const fs::path& config_file) {
 // The pair kernels' SIMD target and width, e.g. "AVX2 (4 doubles per vector)".
 std::string simd_description() {
   return simd::target_name() + " (" + std::to_string(simd::lanes()) + " doubles per vector)";
-}
-
-// FNV-1a over the bytes of the system's interaction parameters: any change to the topology shows.
-class Fingerprint {
- public:
-  template <class T>
-  void add(const T& x) {
-    const auto* p = reinterpret_cast<const unsigned char*>(&x);
-    for (std::size_t k = 0; k < sizeof x; ++k) hash_ = (hash_ ^ p[k]) * 1099511628211ull;
-  }
-  void add_all(const Eigen::MatrixXd& m) {
-    for (Eigen::Index k = 0; k < m.size(); ++k) add(m.data()[k]);
-  }
-  std::string text() const {
-    char buf[20];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash_));
-    return buf;
-  }
-
- private:
-  std::uint64_t hash_ = 14695981039346656037ull;
-};
-
-// The shortest of %.15g / %.17g that reads back as x: exact, and 0.0005 rather than 0.00050000000000000001.
-std::string text(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.15g", x);
-  if (std::strtod(buf, nullptr) != x) std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
-}
-
-// What a continued run must share with the stopped one for its outputs to be the uninterrupted run's.
-RunIdentity run_identity(const System& s, const RunConfig& c, long summary_every) {
-  Fingerprint topology;
-  topology.add_all(s.mass);
-  topology.add_all(s.charge);
-  topology.add_all(s.c6);
-  topology.add_all(s.c12);
-  for (int t : s.type) topology.add(t);
-  for (const Constraint& x : s.constraints) topology.add(x.i), topology.add(x.j), topology.add(x.length);
-  for (const Bond& x : s.bonds) topology.add(x.i), topology.add(x.j), topology.add(x.length), topology.add(x.k);
-  for (const Angle& x : s.angles)
-    topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.theta0), topology.add(x.force_constant);
-  Fingerprint tableau;
-  if (c.integrator.tableau) {
-    for (const auto& row : c.integrator.tableau->a)
-      for (double x : row) tableau.add(x);
-    for (double x : c.integrator.tableau->b) tableau.add(x);
-    for (double x : c.integrator.tableau->c) tableau.add(x);
-  }
-  const IntegratorConfig& i = c.integrator;
-  const ForceFieldConfig& f = c.forcefield;
-  return {{"atoms", std::to_string(s.n_atoms())},
-          {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints)", topology.text()},
-          {"box", text(s.box.length[0]) + " " + text(s.box.length[1]) + " " + text(s.box.length[2])},
-          {"[integrator] type", i.type},
-          {"dt", text(i.dt)},
-          {"constraint_tolerance", text(i.constraint_tolerance)},
-          {"max_iterations", std::to_string(i.max_iterations)},
-          {"method", i.method},
-          {"method_minus", i.method_minus.value_or("(same)")},
-          {"bias", text(i.bias[0]) + " " + text(i.bias[1])},
-          {"projection", i.projection},
-          {"solver_tolerance", i.solver_tolerance ? text(*i.solver_tolerance) : "(default)"},
-          {"acceleration", i.acceleration},
-          {"solver_precision", i.solver_precision},
-          {"tableau", tableau.text()},
-          {"thermostat", i.thermostat},
-          {"temperature", i.temperature ? text(*i.temperature) : "(none)"},
-          {"tau_t", text(i.tau_t)},
-          {"seed", std::to_string(i.seed)},
-          {"emtol", text(i.emtol)},
-          {"emstep", text(i.emstep)},
-          {"cutoff", text(f.cutoff)},
-          {"vdw_modifier", f.vdw_modifier},
-          {"vdw_switch", text(f.vdw_switch)},
-          {"coulomb", f.coulomb},
-          {"epsilon_r", text(f.epsilon_r)},
-          {"epsilon_rf", text(f.epsilon_rf)},
-          {"neighbor_skin", text(f.neighbor_skin)},
-          {"neighbor_search_skin", f.neighbor_search_skin ? text(*f.neighbor_search_skin) : "(automatic)"},
-          {"precision", f.precision},
-          {"trajectory_every", std::to_string(c.output.trajectory_every)},
-          {"energy_every", std::to_string(c.output.energy_every)},
-          {"summary sampling (steps)", std::to_string(summary_every)}};
 }
 
 // Everything a run may leave in its directory.
@@ -253,8 +169,8 @@ int energy_command(const fs::path& config_file, bool json) {
   if (json) {
     std::printf("{");
     for (std::size_t k = 0; k < names.size(); ++k)
-      std::printf("\"%s\": %s, ", names[k].c_str(), text(forces.terms[k]).c_str());
-    std::printf("\"potential\": %s}\n", text(forces.potential).c_str());
+      std::printf("\"%s\": %s, ", names[k].c_str(), exact_text(forces.terms[k]).c_str());
+    std::printf("\"potential\": %s}\n", exact_text(forces.potential).c_str());
   } else {
     for (std::size_t k = 0; k < names.size(); ++k) std::printf("%-10s %20.10f kJ/mol\n", names[k].c_str(), forces.terms[k]);
     std::printf("%-10s %20.10f kJ/mol\n", "potential", forces.potential);
@@ -358,10 +274,34 @@ int check_command(const fs::path& config_file) {
               c.integrator.steps, c.integrator.steps * c.integrator.dt);
   std::printf("output      %s (trajectory every %ld, energies every %ld steps)\n", c.output.dir.string().c_str(),
               c.output.trajectory_every, c.output.energy_every);
+  const std::vector<std::string> settings = non_default_settings(c);
+  for (std::size_t k = 0; k < settings.size(); ++k)
+    std::printf("%s%s\n", k == 0 ? "settings    " : "            ", settings[k].c_str());
+  std::printf("%severy other key at its default (vimd keys lists them)\n", settings.empty() ? "settings    " : "            ");
   std::string targets;
   for (const auto& t : simd::available_targets()) targets += (targets.empty() ? "" : ", ") + t;
   std::printf("platform    SIMD %s, chosen at run time from %s; %d OpenMP threads\n", simd_description().c_str(),
               targets.c_str(), omp_get_max_threads());
+  return 0;
+}
+
+int keys_command(bool markdown) {
+  if (markdown) {
+    std::fputs(config_reference_markdown().c_str(), stdout);
+    return 0;
+  }
+  const RunConfig defaults;
+  for (const std::string& section : config_sections()) {
+    std::printf("[%s]\n", section.c_str());
+    for (const ConfigKey& key : config_keys()) {
+      if (key.section != section) continue;
+      std::string type = key.type;
+      for (std::size_t c = 0; c < key.choices.size(); ++c) type += (c ? " | " : ": ") + key.choices[c];
+      std::printf("  %-22s %s; default %s%s\n  %-22s %s\n", key.name.c_str(), type.c_str(),
+                  section == "system" ? "(required)" : key.value(defaults).c_str(),
+                  key.on_continue == OnContinue::must_match ? "; must match on --continue" : "", "", key.help.c_str());
+    }
+  }
   return 0;
 }
 
@@ -402,6 +342,9 @@ int main(int argc, char** argv) {
   energy->add_flag("--json", json, "print as JSON");
   auto* check = app.add_subcommand("check", "parse the inputs and describe the system");
   check->add_option("config", config, "run parameters (TOML)")->required();
+  bool markdown = false;
+  auto* keys = app.add_subcommand("keys", "the run-file keys: type, default, meaning");
+  keys->add_flag("--markdown", markdown, "as docs/run-file.md");
   CLI11_PARSE(app, argc, argv);
   if (threads > 0) omp_set_num_threads(threads);
   // Past a file-size limit, writes should fail with EFBIG (reported as an error), not kill vimd.
@@ -411,6 +354,7 @@ int main(int argc, char** argv) {
     if (!simd_target.empty()) simd::use_target(simd_target);
     if (run->parsed()) return run_command(config, run_options);
     if (energy->parsed()) return energy_command(config, json);
+    if (keys->parsed()) return keys_command(markdown);
     return check_command(config);
   } catch (const InputError& e) {
     print_error("input error: ", e.what());

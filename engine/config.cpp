@@ -10,6 +10,7 @@
 #include <sstream>
 #include <toml++/toml.h>
 
+#include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 
 namespace vimd {
@@ -17,54 +18,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The accepted keys per table; anything else is an error with a suggestion.
+// The accepted keys per table, from the schema; [integrator.tableau] has its own.
 const std::map<std::string, std::vector<std::string>>& schema() {
-  static const std::map<std::string, std::vector<std::string>> tables = {
-      {"system", {"structure", "topology"}},
-      {"forcefield",
-       {"cutoff", "vdw_modifier", "vdw_switch", "coulomb", "coulomb_modifier", "coulomb_switch", "switch_smoothness",
-        "epsilon_r", "epsilon_rf", "neighbor_skin", "neighbor_search_skin", "precision"}},
-      {"integrator",
-       {"type", "dt", "steps", "constraint_tolerance", "temperature", "seed", "thermostat", "tau_t", "emtol", "emstep", "method", "method_minus", "bias",
-        "projection", "solver_tolerance", "max_iterations", "acceleration", "solver_precision", "tableau"}},
-      {"integrator.tableau", {"a", "b", "c", "order"}},
-      {"output", {"dir", "trajectory_every", "energy_every", "checkpoint_every"}},
-  };
+  static const std::map<std::string, std::vector<std::string>> tables = [] {
+    std::map<std::string, std::vector<std::string>> t;
+    for (const ConfigKey& key : config_keys()) t[key.section].push_back(key.name);
+    t["integrator.tableau"] = {"a", "b", "c", "order"};
+    return t;
+  }();
   return tables;
-}
-
-const std::vector<std::string> kIntegratorTypes = {"verlet", "shake", "rattle", "vi", "rk", "minimize"};
-const std::vector<std::string> kThermostats = {"none", "v-rescale"};
-const std::vector<std::string> kVdwModifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
-const std::vector<std::string> kCoulombTypes = {"reaction-field", "cutoff", "none"};
-const std::vector<std::string> kCoulombModifiers = {"none", "potential-switch"};
-const std::vector<std::string> kPrecisions = {"double", "mixed"};
-const std::vector<std::string> kProjections = {"euclidean", "mass"};
-const std::vector<std::string> kAccelerations = {"none", "anderson"};
-const std::vector<std::string> kSolverPrecisions = {"mixed", "double"};
-
-std::size_t levenshtein(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
-
-// The closest choice, when it is close enough to be a plausible typo.
-std::optional<std::string> nearest(const std::string& word, const std::vector<std::string>& choices) {
-  const auto best = *std::min_element(choices.begin(), choices.end(), [&](const auto& x, const auto& y) {
-    return levenshtein(word, x) < levenshtein(word, y);
-  });
-  if (levenshtein(word, best) > std::max<std::size_t>(2, word.size() / 3)) return std::nullopt;
-  return best;
 }
 
 std::string format_number(double value) {
@@ -115,16 +77,10 @@ class ConfigReader {
       if (!schema().count(name) || name.find('.') != std::string::npos) unknown_top_level(name, key, node);
       if (!node.is_table()) fail(key, "[" + name + "] must be a table, found " + type_name(node));
     }
-    const toml::table* system = root["system"].as_table();
-    if (!system) throw InputError(file_.string(), 0, "missing [system] table with structure and topology");
-    read_system(*system, config);
-    if (const auto* t = root["forcefield"].as_table()) read_forcefield(*t, config.forcefield);
-    if (const auto* t = root["integrator"].as_table()) read_integrator(*t, config.integrator);
-    if (const auto* t = root["output"].as_table()) read_output(*t, config.output);
-    if (config.forcefield.precision == "mixed" && (config.integrator.type == "vi" || config.integrator.type == "rk"))
-      fail(*root["forcefield"]["precision"].node(),
-           "precision = \"mixed\" is for verlet, shake, rattle and minimize: type = \"" + config.integrator.type +
-               "\" solves its step equations to a tolerance that single-precision forces cannot meet");
+    if (!root["system"].as_table()) throw InputError(file_.string(), 0, "missing [system] table with structure and topology");
+    for (const std::string& section : config_sections())
+      if (const auto* t = root[section].as_table()) read_section(*t, section, config);
+    check_rules(root, config);
     config.output.dir = resolve(config.output.dir);
     return config;
   }
@@ -234,7 +190,7 @@ class ConfigReader {
       if (std::find(keys.begin(), keys.end(), key) != keys.end()) table_name = table;
     }
     if (table_name.empty()) {
-      const auto suggestion = nearest(key, all);
+      const auto suggestion = nearest_word(key, all);
       throw InputError(kOverrides, 0,
                        "unknown setting '" + key + "'" + (suggestion ? "; did you mean '" + *suggestion + "'?" : "") +
                            " (settings: " + join(all) + ")");
@@ -273,7 +229,7 @@ class ConfigReader {
     std::vector<std::string> tables;
     for (const auto& [table, keys] : schema())
       if (table.find('.') == std::string::npos) tables.push_back(table);
-    const auto suggestion = nearest(name, tables);
+    const auto suggestion = nearest_word(name, tables);
     fail(key, std::string(node.is_table() ? "unknown table [" : "unknown key '") + name +
                   (node.is_table() ? "]" : "'") + (suggestion ? "; did you mean [" + *suggestion + "]?" : "") +
                   " (tables: " + join(tables) + ")");
@@ -289,7 +245,7 @@ class ConfigReader {
       for (const auto& [other, keys] : schema())
         if (other != table_name && std::find(keys.begin(), keys.end(), name) != keys.end())
           hint = " ('" + name + "' belongs in [" + other + "])";
-      const auto suggestion = nearest(name, allowed);
+      const auto suggestion = nearest_word(name, allowed);
       fail(key, "unknown key '" + name + "' in [" + table_name + "]" +
                     (suggestion ? "; did you mean '" + *suggestion + "'?" : "") + hint + " (valid keys: " +
                     join(allowed) + ")");
@@ -315,15 +271,6 @@ class ConfigReader {
     if (const auto* v = node.as_string()) return v->get();
     fail(node, what + " must be a string, found " + type_name(node));
   }
-  std::string choice(const toml::node& node, const std::string& what, const std::vector<std::string>& choices) const {
-    const std::string value = string(node, what);
-    if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
-      const auto suggestion = nearest(value, choices);
-      fail(node, what + " = \"" + value + "\" is not supported" +
-                     (suggestion ? "; did you mean \"" + *suggestion + "\"?" : "") + " (choices: " + join(choices) + ")");
-    }
-    return value;
-  }
   void require(bool ok, const toml::node& node, const std::string& problem) const {
     if (!ok) fail(node, problem);
   }
@@ -344,157 +291,90 @@ class ConfigReader {
     return path;
   }
 
-  void read_system(const toml::table& t, RunConfig& config) const {
-    check_keys(t, "system");
-    const auto* structure = t.get("structure");
-    const auto* topology = t.get("topology");
-    const int line = static_cast<int>(t.source().begin.line);
-    if (!structure) throw InputError(file_.string(), line, "[system] needs structure = \"file.gro\"");
-    if (!topology) throw InputError(file_.string(), line, "[system] needs topology = \"file.top\"");
-    config.structure = existing_file(*structure, "[system] structure");
-    config.topology = existing_file(*topology, "[system] topology");
+  // One key's value, through the reader's typed accessors (errors at the value's line).
+  class NodeInput final : public KeyInput {
+   public:
+    NodeInput(const ConfigReader& reader, const ConfigKey& key, const toml::node& node)
+        : reader_(reader), key_(key), node_(node) {}
+    double number() const override { return reader_.number(node_, key_.name); }
+    long integer() const override { return reader_.integer(node_, key_.name); }
+    std::string string() const override { return reader_.string(node_, key_.name); }
+    std::vector<double> numbers() const override { return reader_.numbers(node_, key_.name); }
+    fs::path existing_file() const override {
+      return reader_.existing_file(node_, "[" + key_.section + "] " + key_.name);
+    }
+    fs::path path() const override { return reader_.resolve(reader_.string(node_, key_.name)); }
+    TableauConfig tableau() const override {
+      const auto* table = node_.as_table();
+      if (!table) reader_.fail(node_, "[integrator.tableau] must be a table, found " + type_name(node_));
+      return reader_.read_tableau(*table);
+    }
+    [[noreturn]] void fail(const std::string& problem) const override { reader_.fail(node_, problem); }
+    const ConfigKey& key() const override { return key_; }
+
+   private:
+    const ConfigReader& reader_;
+    const ConfigKey& key_;
+    const toml::node& node_;
+  };
+
+  // Every key the table has, read as the schema says.
+  void read_section(const toml::table& t, const std::string& section, RunConfig& config) const {
+    check_keys(t, section);
+    for (const ConfigKey& key : config_keys())
+      if (key.section == section)
+        if (const auto* node = t.get(key.name)) key.read(NodeInput(*this, key, *node), config);
   }
 
-  void read_forcefield(const toml::table& t, ForceFieldConfig& ff) const {
-    check_keys(t, "forcefield");
-    if (const auto* n = t.get("cutoff")) {
-      ff.cutoff = number(*n, "cutoff");
-      require(ff.cutoff > 0, *n, "cutoff must be positive (nm)");
-    }
-    if (const auto* n = t.get("vdw_modifier")) ff.vdw_modifier = choice(*n, "vdw_modifier", kVdwModifiers);
-    if (const auto* n = t.get("vdw_switch")) {
-      ff.vdw_switch = number(*n, "vdw_switch");
-      require(ff.vdw_switch >= 0, *n, "vdw_switch must not be negative (nm)");
-    }
+  // The rules between keys, each reported at the line of the key that breaks it.
+  void check_rules(const toml::table& root, const RunConfig& config) const {
+    const auto node = [&](const char* section, const char* name) -> const toml::node* {
+      const auto* table = root[section].as_table();
+      return table ? table->get(name) : nullptr;
+    };
+    const toml::table& system = *root["system"].as_table();
+    const int system_line = static_cast<int>(system.source().begin.line);
+    if (!node("system", "structure")) throw InputError(file_.string(), system_line, "[system] needs structure = \"file.gro\"");
+    if (!node("system", "topology")) throw InputError(file_.string(), system_line, "[system] needs topology = \"file.top\"");
+
+    const ForceFieldConfig& ff = config.forcefield;
     if (ff.vdw_modifier == "force-switch" || ff.vdw_modifier == "potential-switch") {
-      const toml::node* where = t.get("vdw_switch") ? t.get("vdw_switch") : t.get("vdw_modifier");
+      const toml::node* where = node("forcefield", "vdw_switch") ? node("forcefield", "vdw_switch")
+                                                                  : node("forcefield", "vdw_modifier");
       require(ff.vdw_switch < ff.cutoff, *where,
               "vdw_switch (" + format_number(ff.vdw_switch) + " nm) must be smaller than cutoff (" +
                   format_number(ff.cutoff) + " nm) for " + ff.vdw_modifier);
     }
-    if (const auto* n = t.get("coulomb")) ff.coulomb = choice(*n, "coulomb", kCoulombTypes);
-    if (const auto* n = t.get("epsilon_r")) {
-      ff.epsilon_r = number(*n, "epsilon_r");
-      require(ff.epsilon_r > 0, *n, "epsilon_r must be positive");
-    }
-    if (const auto* n = t.get("epsilon_rf")) {
-      ff.epsilon_rf = number(*n, "epsilon_rf");
-      require(ff.epsilon_rf >= 0, *n, "epsilon_rf must not be negative (0 means infinity)");
-    }
-    if (const auto* n = t.get("coulomb_modifier"))
-      ff.coulomb_modifier = choice(*n, "coulomb_modifier", kCoulombModifiers);
-    if (const auto* n = t.get("coulomb_switch")) {
-      ff.coulomb_switch = number(*n, "coulomb_switch");
-      require(ff.coulomb_switch >= 0, *n, "coulomb_switch must not be negative (nm)");
-    }
     if (ff.coulomb_modifier == "potential-switch") {
-      const toml::node& modifier = *t.get("coulomb_modifier");
-      require(ff.coulomb != "none", modifier, "coulomb_modifier = \"potential-switch\" needs coulomb = \"reaction-field\" or \"cutoff\"");
-      require(t.get("coulomb_switch") != nullptr, modifier,
+      const toml::node& modifier = *node("forcefield", "coulomb_modifier");
+      require(ff.coulomb != "none", modifier,
+              "coulomb_modifier = \"potential-switch\" needs coulomb = \"reaction-field\" or \"cutoff\"");
+      const toml::node* start = node("forcefield", "coulomb_switch");
+      require(start != nullptr, modifier,
               "coulomb_modifier = \"potential-switch\" needs coulomb_switch (nm, where the switch starts)");
-      require(ff.coulomb_switch < ff.cutoff, *t.get("coulomb_switch"),
+      require(ff.coulomb_switch < ff.cutoff, *start,
               "coulomb_switch (" + format_number(ff.coulomb_switch) + " nm) must be smaller than cutoff (" +
                   format_number(ff.cutoff) + " nm)");
     }
-    if (const auto* n = t.get("switch_smoothness")) {
-      const long k = integer(*n, "switch_smoothness");
-      require(k >= 2 && k <= 6, *n,
-              "switch_smoothness must be between 2 and 6 (continuous derivatives of a potential-switch pair "
-              "potential; 2 is GROMACS's), got " + std::to_string(k));
-      ff.switch_smoothness = static_cast<int>(k);
-    }
-    if (const auto* n = t.get("neighbor_skin")) {
-      ff.neighbor_skin = number(*n, "neighbor_skin");
-      require(ff.neighbor_skin >= 0, *n, "neighbor_skin must not be negative (nm)");
-    }
-    if (const auto* n = t.get("precision")) ff.precision = choice(*n, "precision", kPrecisions);
-    if (const auto* n = t.get("neighbor_search_skin")) {
-      ff.neighbor_search_skin = number(*n, "neighbor_search_skin");
-      require(*ff.neighbor_search_skin >= ff.neighbor_skin, *n,
+    if (const toml::node* search_skin = node("forcefield", "neighbor_search_skin"))
+      require(*ff.neighbor_search_skin >= ff.neighbor_skin, *search_skin,
               "neighbor_search_skin (" + format_number(*ff.neighbor_search_skin) +
                   " nm) must not be smaller than neighbor_skin (" + format_number(ff.neighbor_skin) + " nm)");
-    }
-  }
 
-  void read_integrator(const toml::table& t, IntegratorConfig& in) const {
-    check_keys(t, "integrator");
-    if (const auto* n = t.get("type")) in.type = choice(*n, "type", kIntegratorTypes);
-    if (const auto* n = t.get("dt")) {
-      in.dt = number(*n, "dt");
-      require(in.dt > 0, *n, "dt must be positive (ps)");
-    }
-    if (const auto* n = t.get("steps")) {
-      in.steps = integer(*n, "steps");
-      require(in.steps >= 0, *n, "steps must not be negative");
-    }
-    if (const auto* n = t.get("constraint_tolerance")) {
-      in.constraint_tolerance = number(*n, "constraint_tolerance");
-      require(in.constraint_tolerance > 0 && in.constraint_tolerance < 1, *n,
-              "constraint_tolerance is relative and must be in (0, 1)");
-    }
-    if (const auto* n = t.get("temperature")) {
-      in.temperature = number(*n, "temperature");
-      require(*in.temperature >= 0, *n, "temperature must not be negative (K)");
-    }
-    if (const auto* n = t.get("seed")) {
-      const long seed = integer(*n, "seed");
-      require(seed >= 0, *n, "seed must not be negative");
-      in.seed = static_cast<std::uint64_t>(seed);
-    }
-    if (const auto* n = t.get("thermostat")) {
-      in.thermostat = choice(*n, "thermostat", kThermostats);
-      require(in.thermostat == "none" || in.temperature, *n,
+    const IntegratorConfig& in = config.integrator;
+    if (const toml::node* thermostat = node("integrator", "thermostat"))
+      require(in.thermostat == "none" || in.temperature, *thermostat,
               "thermostat = \"" + in.thermostat + "\" needs temperature = <K> in [integrator] (the reference)");
-    }
-    if (const auto* n = t.get("tau_t")) {
-      in.tau_t = number(*n, "tau_t");
-      require(in.tau_t >= 0, *n, "tau_t must not be negative (ps)");
-    }
-    if (const auto* n = t.get("emtol")) {
-      in.emtol = number(*n, "emtol");
-      require(in.emtol > 0, *n, "emtol must be positive (kJ/mol/nm)");
-    }
-    if (const auto* n = t.get("emstep")) {
-      in.emstep = number(*n, "emstep");
-      require(in.emstep > 0, *n, "emstep must be positive (nm)");
-    }
-    if (const auto* n = t.get("method")) {
-      in.method = string(*n, "method");
-      require(!in.method.empty(), *n, "method must not be empty");
-    }
-    if (const auto* n = t.get("method_minus")) {
-      in.method_minus = string(*n, "method_minus");
-      require(!in.method_minus->empty(), *n, "method_minus must not be empty");
-    }
-    if (const auto* n = t.get("bias")) {
-      const auto bias = numbers(*n, "bias");
-      require(bias.size() == 2, *n, "bias must have two numbers [alpha_minus, alpha_plus]");
-      in.bias = {bias[0], bias[1]};
-    }
-    if (const auto* n = t.get("projection")) in.projection = choice(*n, "projection", kProjections);
-    if (const auto* n = t.get("solver_tolerance")) {
-      in.solver_tolerance = number(*n, "solver_tolerance");
-      require(*in.solver_tolerance > 0, *n, "solver_tolerance must be positive");
-    }
-    if (const auto* n = t.get("max_iterations")) {
-      const long iterations = integer(*n, "max_iterations");
-      require(iterations >= 1 && iterations <= 1000000, *n, "max_iterations must be between 1 and 1000000");
-      in.max_iterations = static_cast<int>(iterations);
-    }
-    if (const auto* n = t.get("acceleration")) in.acceleration = choice(*n, "acceleration", kAccelerations);
-    if (const auto* n = t.get("solver_precision"))
-      in.solver_precision = choice(*n, "solver_precision", kSolverPrecisions);
-    const auto* tableau = t.get("tableau");
-    if (tableau) {
-      const auto* table = tableau->as_table();
-      if (!table) fail(*tableau, "[integrator.tableau] must be a table, found " + type_name(*tableau));
-      in.tableau = read_tableau(*table);
-      const auto* method = t.get("method");
+    const toml::node* method = node("integrator", "method");
+    if (const toml::node* tableau = node("integrator", "tableau"))
       require(in.method == "user", method ? *method : *tableau,
               "[integrator.tableau] is given, so method must be \"user\" (it is \"" + in.method + "\")");
-    } else if (in.method == "user") {
-      fail(*t.get("method"), "method = \"user\" needs an [integrator.tableau] table with a, b and order");
-    }
+    else if (in.method == "user")
+      fail(*method, "method = \"user\" needs an [integrator.tableau] table with a, b and order");
+    if (ff.precision == "mixed" && (in.type == "vi" || in.type == "rk"))
+      fail(*node("forcefield", "precision"),
+           "precision = \"mixed\" is for verlet, shake, rattle and minimize: type = \"" + in.type +
+               "\" solves its step equations to a tolerance that single-precision forces cannot meet");
   }
 
   TableauConfig read_tableau(const toml::table& t) const {
@@ -534,27 +414,6 @@ class ConfigReader {
     require(stated >= 1 && stated <= 20, *order, "tableau order must be between 1 and 20");
     tableau.order = static_cast<int>(stated);
     return tableau;
-  }
-
-  void read_output(const toml::table& t, OutputConfig& out) const {
-    check_keys(t, "output");
-    if (const auto* n = t.get("dir")) {
-      out.dir = string(*n, "dir");
-      require(!out.dir.empty(), *n, "dir must not be empty");
-    }
-    if (const auto* n = t.get("trajectory_every")) {
-      out.trajectory_every = integer(*n, "trajectory_every");
-      require(out.trajectory_every >= 0, *n, "trajectory_every must not be negative (0 disables the trajectory)");
-    }
-    if (const auto* n = t.get("checkpoint_every")) {
-      out.checkpoint_every = integer(*n, "checkpoint_every");
-      require(out.checkpoint_every >= 0, *n,
-              "checkpoint_every must not be negative (0: every 15 minutes of wall time and at the end)");
-    }
-    if (const auto* n = t.get("energy_every")) {
-      out.energy_every = integer(*n, "energy_every");
-      require(out.energy_every >= 0, *n, "energy_every must not be negative (0 disables the energy output)");
-    }
   }
 
   fs::path file_, dir_;

@@ -64,6 +64,12 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
       }
 }
 
+double skin_fitting_box(const Box& box, double cutoff, double skin) {
+  for (int k = 0; k < 3; ++k)
+    if (box.length[k] > 0) skin = std::min(skin, 0.5 * box.length[k] - cutoff);
+  return std::max(skin, 0.0);
+}
+
 double max_displacement(const Coords& a, const Coords& b) {
   if (a.cols() != b.cols()) return INFINITY;
   // One thread: this runs before every evaluation and costs about as much as starting a team.

@@ -25,6 +25,11 @@ namespace vimd {
 // Largest distance any atom moved between a and b (same atoms), nm.
 double max_displacement(const Coords& a, const Coords& b);
 
+// The largest list buffer up to `skin` that the box allows: every pair within cutoff + buffer must
+// have one image only, so 2 (cutoff + buffer) may not exceed a box length. A box shorter than twice
+// the cut-off allows none (0; the input check refuses it).
+double skin_fitting_box(const Box& box, double cutoff, double skin);
+
 class NeighborList {
  public:
   // j-cluster: 8 atoms, one AVX-512 vector of doubles, two AVX2 or four SSE vectors (the kernels

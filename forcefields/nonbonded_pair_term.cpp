@@ -112,15 +112,20 @@ constexpr double kMinStepSkin = 0.005;  // nm
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
 constexpr double kAutoSearchSkinExtra = 0.4;  // nm
 
-// The searched list's buffer: as configured, or the pruned one's plus kAutoSearchSkinExtra where the
-// box leaves room (cut-off + search skin within half the box). Pruning pays only if the search
-// can then wait longer than a pruning does, i.e. if the extra buffer is at least the pruned one.
+// The pair list's buffer: as configured, cut to what the box allows (engine/input.cpp warns).
+double skin_for(const System& system, const ForceFieldConfig& config) {
+  return skin_fitting_box(system.box, config.cutoff, config.neighbor_skin);
+}
+
+// The searched list's buffer: as configured, or the pruned one's plus kAutoSearchSkinExtra, in
+// either case cut to what the box allows. Pruning pays only if the search can then wait longer than
+// a pruning does, i.e. if the extra buffer is at least the pruned one.
 double search_skin_for(const System& system, const ForceFieldConfig& config) {
-  if (config.neighbor_search_skin) return *config.neighbor_search_skin;
-  double skin = config.neighbor_skin + kAutoSearchSkinExtra;
-  for (int k = 0; k < 3; ++k)
-    if (system.box.length[k] > 0) skin = std::min(skin, 0.5 * system.box.length[k] - config.cutoff);
-  return skin - config.neighbor_skin >= config.neighbor_skin ? skin : config.neighbor_skin;
+  const double skin = skin_for(system, config);
+  if (config.neighbor_search_skin)
+    return std::max(skin, skin_fitting_box(system.box, config.cutoff, *config.neighbor_search_skin));
+  const double search_skin = skin_fitting_box(system.box, config.cutoff, skin + kAutoSearchSkinExtra);
+  return search_skin - skin >= skin ? search_skin : skin;
 }
 
 }  // namespace
@@ -139,7 +144,7 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       n_types_(static_cast<int>(system.c6.rows())),
       charge_(system.charge),
       type_(system.type),
-      skin_(config.neighbor_skin),
+      skin_(skin_for(system, config)),
       list_(system.box, config.cutoff, search_skin_for(system, config), system.exclusions) {
   if (system.c6.rows() != system.c6.cols() || system.c12.rows() != n_types_ || system.c12.cols() != n_types_)
     throw std::invalid_argument("NonbondedPairTerm: c6/c12 must be square matrices of the same size");

@@ -50,6 +50,17 @@ if [[ $rc -eq 2 && "$out" == *"dt: 0.001 in the checkpoint, 0.0005 here"* ]]; th
 else
   fail "continuing with another dt: exit $rc: $out"
 fi
+# Nor under another switch (these keys were once left out of the identity).
+for setting in "switch_smoothness = 3" "coulomb_switch = 0.5" "coulomb_modifier = \"potential-switch\"\\ncoulomb_switch = 1.2"; do
+  key=${setting%% =*}
+  sed -e "s/^\[forcefield\]/[forcefield]\n$setting/" "$work/run.toml" > "$work/other.toml"
+  out=$("$vimd" run "$work/other.toml" --continue "$work/split" 2>&1); rc=$?
+  if [[ $rc -eq 2 && "$out" == *"[forcefield] $key: "*" in the checkpoint, "* ]]; then
+    ok "continuing with another $key refused"
+  else
+    fail "continuing with $setting: exit $rc: $out"
+  fi
+done
 # Nor may a new run silently replace the stopped one.
 out=$("$vimd" run "$work/run.toml" --out "$work/split" 2>&1); rc=$?
 [[ $rc -eq 2 && "$out" == *"holds a stopped run"* ]] && ok "a stopped run is not overwritten" || fail "new run over a stopped one: exit $rc: $out"

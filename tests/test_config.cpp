@@ -1,6 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "engine/checkpoint.hpp"
 #include "engine/config.hpp"
+#include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "marked_line.hpp"
 
@@ -157,4 +163,111 @@ TEST(Config, MissingFileIsAnInputError) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("no_such.toml"), std::string::npos);
   }
+}
+
+// A value handed to a key's reader as if a run file had it.
+class GivenValue final : public KeyInput {
+ public:
+  GivenValue(const ConfigKey& key, ConfigValue value) : key_(key), value_(std::move(value)) {}
+  double number() const override {
+    return std::holds_alternative<long>(value_) ? static_cast<double>(std::get<long>(value_)) : std::get<double>(value_);
+  }
+  long integer() const override { return std::get<long>(value_); }
+  std::string string() const override { return std::get<std::string>(value_); }
+  std::vector<double> numbers() const override { return std::get<std::vector<double>>(value_); }
+  fs::path existing_file() const override { return string(); }
+  fs::path path() const override { return string(); }
+  TableauConfig tableau() const override { return std::get<TableauConfig>(value_); }
+  [[noreturn]] void fail(const std::string& problem) const override { throw InputError("given", 0, problem); }
+  const ConfigKey& key() const override { return key_; }
+
+ private:
+  const ConfigKey& key_;
+  ConfigValue value_;
+};
+
+// Every key of the schema is decided for a continued run: a key that must match changes the
+// identity (and check_identity names it), one that may change leaves it alone. A new key fails
+// here until it has an alternative value below, and so a decision.
+TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
+  const std::map<std::string, ConfigValue> alternative = {
+      {"structure", std::string("other.gro")},
+      {"topology", std::string("other.top")},
+      {"cutoff", 1.1},
+      {"vdw_modifier", std::string("force-switch")},
+      {"vdw_switch", 0.7},
+      {"coulomb", std::string("cutoff")},
+      {"coulomb_modifier", std::string("none")},
+      {"coulomb_switch", 0.7},
+      {"switch_smoothness", 3L},
+      {"epsilon_r", 2.0},
+      {"epsilon_rf", 0.0},
+      {"neighbor_skin", 0.1},
+      {"neighbor_search_skin", 0.5},
+      {"precision", std::string("mixed")},
+      {"type", std::string("rattle")},
+      {"dt", 0.002},
+      {"steps", 100L},
+      {"constraint_tolerance", 1e-10},
+      {"temperature", 310.0},
+      {"seed", 7L},
+      {"thermostat", std::string("v-rescale")},
+      {"tau_t", 0.5},
+      {"emtol", 1.0},
+      {"emstep", 0.02},
+      {"method", std::string("rk4")},
+      {"method_minus", std::string("rk6")},
+      {"bias", std::vector<double>{0.0, 1.0}},
+      {"projection", std::string("euclidean")},
+      {"solver_tolerance", 1e-9},
+      {"max_iterations", 40L},
+      {"acceleration", std::string("none")},
+      {"solver_precision", std::string("mixed")},
+      {"tableau", TableauConfig{{{0.0, 0.0}, {1.0, 0.0}}, {0.5, 0.5}, {0.0, 1.0}, 2, 0}},
+      {"dir", std::string("results/run2")},
+      {"trajectory_every", 10L},
+      {"energy_every", 1L},
+      {"checkpoint_every", 0L},
+  };
+  const System system;
+  const RunConfig base = read_config(kConfig / "full.toml");
+  const RunIdentity base_identity = run_identity(system, base, 5);
+  for (const ConfigKey& key : config_keys()) {
+    SCOPED_TRACE("[" + key.section + "] " + key.name);
+    const auto it = alternative.find(key.name);
+    ASSERT_NE(it, alternative.end()) << "a new key: give it an alternative value here and decide (OnContinue) "
+                                        "whether a continued run may change it";
+    RunConfig changed = base;
+    key.read(GivenValue(key, it->second), changed);
+    ASSERT_NE(key.value(changed), key.value(base)) << "the alternative value is full.toml's own";
+    const RunIdentity identity = run_identity(system, changed, 5);
+    // Which settings a continued run may change is a decision: changing it changes this list.
+    const std::set<std::string> may_change = {"structure", "topology", "steps", "dir", "checkpoint_every"};
+    EXPECT_EQ(key.on_continue == OnContinue::may_change, may_change.count(key.name) == 1);
+    if (key.on_continue == OnContinue::may_change) {
+      EXPECT_EQ(identity, base_identity);
+    } else {
+      try {
+        check_identity("state.cpt", base_identity, identity);
+        ADD_FAILURE() << "a continued run accepts another value of this key";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("[" + key.section + "] " + key.name + ": "), std::string::npos)
+            << e.what();
+      }
+    }
+  }
+}
+
+// Every key the schema lists is one the reader accepts, and a settings override reaches it.
+TEST(ConfigSchema, OverridesReachEveryNamedKey) {
+  const RunConfig c = read_config(kConfig / "full.toml", {{"switch_smoothness", 5L}, {"coulomb_switch", 0.6}});
+  EXPECT_EQ(c.forcefield.switch_smoothness, 5);
+  EXPECT_DOUBLE_EQ(c.forcefield.coulomb_switch, 0.6);
+}
+
+// docs/run-file.md is the schema's reference as `vimd keys --markdown` prints it.
+TEST(ConfigSchema, ReferenceInDocsIsCurrent) {
+  std::ifstream in(fs::path(VIMD_SOURCE_DIR) / "docs/run-file.md");
+  const std::string docs{std::istreambuf_iterator<char>(in), {}};
+  EXPECT_EQ(docs, config_reference_markdown()) << "regenerate it: build/vimd keys --markdown > docs/run-file.md";
 }

@@ -1,0 +1,425 @@
+#include "engine/config_schema.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+
+namespace vimd {
+
+namespace {
+
+using Read = std::function<void(const KeyInput&, RunConfig&)>;
+using Value = std::function<std::string(const RunConfig&)>;
+constexpr OnContinue kMustMatch = OnContinue::must_match;
+constexpr OnContinue kMayChange = OnContinue::may_change;
+
+std::string quoted(const std::string& s) { return "\"" + s + "\""; }
+std::string integer_text(long x) { return std::to_string(x); }
+
+// FNV-1a over the bytes of what is added: any change shows.
+class Fingerprint {
+ public:
+  template <class T>
+  void add(const T& x) {
+    const auto* p = reinterpret_cast<const unsigned char*>(&x);
+    for (std::size_t k = 0; k < sizeof x; ++k) hash_ = (hash_ ^ p[k]) * 1099511628211ull;
+  }
+  void add_all(const Eigen::MatrixXd& m) {
+    for (Eigen::Index k = 0; k < m.size(); ++k) add(m.data()[k]);
+  }
+  std::string text() const {
+    char buf[20];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash_));
+    return buf;
+  }
+
+ private:
+  std::uint64_t hash_ = 14695981039346656037ull;
+};
+
+std::string tableau_text(const std::optional<TableauConfig>& tableau) {
+  if (!tableau) return "(none)";
+  Fingerprint f;
+  for (const auto& row : tableau->a)
+    for (double x : row) f.add(x);
+  for (double x : tableau->b) f.add(x);
+  for (double x : tableau->c) f.add(x);
+  f.add(tableau->order);
+  return "fingerprint " + f.text();
+}
+
+std::size_t levenshtein(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::vector<ConfigKey> make_keys() {
+  const std::vector<std::string> vdw_modifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
+  std::vector<ConfigKey> k;
+  // --- [system]
+  k.push_back({"system", "structure", "path", {}, kMayChange,
+               "GROMACS .gro with positions (and velocities); relative to the run file. Required",
+               [](const KeyInput& in, RunConfig& c) { c.structure = in.existing_file(); },
+               [](const RunConfig& c) { return c.structure.string(); }});
+  k.push_back({"system", "topology", "path", {}, kMayChange,
+               "GROMACS .top; #include resolves next to the file, then GMXLIB or /usr/share/gromacs/top. Required",
+               [](const KeyInput& in, RunConfig& c) { c.topology = in.existing_file(); },
+               [](const RunConfig& c) { return c.topology.string(); }});
+  // --- [forcefield]
+  k.push_back({"forcefield", "cutoff", "number, nm", {}, kMustMatch, "cut-off of LJ and Coulomb (rvdw = rcoulomb)",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.forcefield.cutoff = in.number();
+                 in.require(c.forcefield.cutoff > 0, "cutoff must be positive (nm)");
+               },
+               [](const RunConfig& c) { return exact_text(c.forcefield.cutoff); }});
+  k.push_back({"forcefield", "vdw_modifier", "string", vdw_modifiers, kMustMatch,
+               "LJ at the cut-off, as GROMACS's vdw-modifier",
+               [](const KeyInput& in, RunConfig& c) { c.forcefield.vdw_modifier = in.choice(); },
+               [](const RunConfig& c) { return c.forcefield.vdw_modifier; }});
+  k.push_back({"forcefield", "vdw_switch", "number, nm", {}, kMustMatch,
+               "start of the LJ switch (force-switch, potential-switch)",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.forcefield.vdw_switch = in.number();
+                 in.require(c.forcefield.vdw_switch >= 0, "vdw_switch must not be negative (nm)");
+               },
+               [](const RunConfig& c) { return exact_text(c.forcefield.vdw_switch); }});
+  k.push_back({"forcefield", "coulomb", "string", {"reaction-field", "cutoff", "none"}, kMustMatch,
+               "electrostatics: reaction field (epsilon_rf), plain cut-off, or none",
+               [](const KeyInput& in, RunConfig& c) { c.forcefield.coulomb = in.choice(); },
+               [](const RunConfig& c) { return c.forcefield.coulomb; }});
+  k.push_back({"forcefield", "coulomb_modifier", "string", {"none", "potential-switch"}, kMustMatch,
+               "potential-switch multiplies Coulomb by the switch (not a GROMACS option)",
+               [](const KeyInput& in, RunConfig& c) { c.forcefield.coulomb_modifier = in.choice(); },
+               [](const RunConfig& c) { return c.forcefield.coulomb_modifier; }});
+  k.push_back({"forcefield", "coulomb_switch", "number, nm", {}, kMustMatch,
+               "start of the Coulomb switch (required with coulomb_modifier = \"potential-switch\")",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.forcefield.coulomb_switch = in.number();
+                 in.require(c.forcefield.coulomb_switch >= 0, "coulomb_switch must not be negative (nm)");
+               },
+               [](const RunConfig& c) { return exact_text(c.forcefield.coulomb_switch); }});
+  k.push_back({"forcefield", "switch_smoothness", "integer, 2-6", {}, kMustMatch,
+               "k: potential-switched pair potentials are C^k at both ends of the switch (2 is GROMACS's)",
+               [](const KeyInput& in, RunConfig& c) {
+                 const long smoothness = in.integer();
+                 in.require(smoothness >= 2 && smoothness <= 6,
+                            "switch_smoothness must be between 2 and 6 (continuous derivatives of a potential-switch "
+                            "pair potential; 2 is GROMACS's), got " + std::to_string(smoothness));
+                 c.forcefield.switch_smoothness = static_cast<int>(smoothness);
+               },
+               [](const RunConfig& c) { return integer_text(c.forcefield.switch_smoothness); }});
+  k.push_back({"forcefield", "epsilon_r", "number", {}, kMustMatch, "relative dielectric constant",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.forcefield.epsilon_r = in.number();
+                 in.require(c.forcefield.epsilon_r > 0, "epsilon_r must be positive");
+               },
+               [](const RunConfig& c) { return exact_text(c.forcefield.epsilon_r); }});
+  k.push_back({"forcefield", "epsilon_rf", "number", {}, kMustMatch,
+               "reaction-field dielectric constant; 0 means infinity",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.forcefield.epsilon_rf = in.number();
+                 in.require(c.forcefield.epsilon_rf >= 0, "epsilon_rf must not be negative (0 means infinity)");
+               },
+               [](const RunConfig& c) { return exact_text(c.forcefield.epsilon_rf); }});
+  k.push_back({"forcefield", "neighbor_skin", "number, nm", {}, kMustMatch,
+               "buffer of the pair list the kernels run over; re-pruned when an atom moved half of it",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.forcefield.neighbor_skin = in.number();
+                 in.require(c.forcefield.neighbor_skin >= 0, "neighbor_skin must not be negative (nm)");
+               },
+               [](const RunConfig& c) { return exact_text(c.forcefield.neighbor_skin); }});
+  k.push_back({"forcefield", "neighbor_search_skin", "number, nm", {}, kMustMatch,
+               "buffer of the searched list it is pruned from (unset: neighbor_skin + 0.4, as the box allows)",
+               [](const KeyInput& in, RunConfig& c) { c.forcefield.neighbor_search_skin = in.number(); },
+               [](const RunConfig& c) {
+                 return c.forcefield.neighbor_search_skin ? exact_text(*c.forcefield.neighbor_search_skin)
+                                                          : std::string("(automatic)");
+               }});
+  k.push_back({"forcefield", "precision", "string", {"double", "mixed"}, kMustMatch,
+               "mixed: pair forces in single precision, as GROMACS's default build (not with vi or rk)",
+               [](const KeyInput& in, RunConfig& c) { c.forcefield.precision = in.choice(); },
+               [](const RunConfig& c) { return c.forcefield.precision; }});
+  // --- [integrator]
+  k.push_back({"integrator", "type", "string", {"verlet", "shake", "rattle", "vi", "rk", "minimize"}, kMustMatch,
+               "the integrator (vi: variational from a Runge-Kutta method; rk: projected Runge-Kutta)",
+               [](const KeyInput& in, RunConfig& c) { c.integrator.type = in.choice(); },
+               [](const RunConfig& c) { return c.integrator.type; }});
+  k.push_back({"integrator", "dt", "number, ps", {}, kMustMatch, "time step",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.dt = in.number();
+                 in.require(c.integrator.dt > 0, "dt must be positive (ps)");
+               },
+               [](const RunConfig& c) { return exact_text(c.integrator.dt); }});
+  k.push_back({"integrator", "steps", "integer", {}, kMayChange, "steps to run (a continued run goes on up to it)",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.steps = in.integer();
+                 in.require(c.integrator.steps >= 0, "steps must not be negative");
+               },
+               [](const RunConfig& c) { return integer_text(c.integrator.steps); }});
+  k.push_back({"integrator", "constraint_tolerance", "number", {}, kMustMatch,
+               "relative deviation |r - d|/d each constraint is solved to",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.constraint_tolerance = in.number();
+                 in.require(c.integrator.constraint_tolerance > 0 && c.integrator.constraint_tolerance < 1,
+                            "constraint_tolerance is relative and must be in (0, 1)");
+               },
+               [](const RunConfig& c) { return exact_text(c.integrator.constraint_tolerance); }});
+  k.push_back({"integrator", "temperature", "number, K", {}, kMustMatch,
+               "generates velocities when the .gro has none; the thermostat's reference",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.temperature = in.number();
+                 in.require(*c.integrator.temperature >= 0, "temperature must not be negative (K)");
+               },
+               [](const RunConfig& c) {
+                 return c.integrator.temperature ? exact_text(*c.integrator.temperature) : std::string("(none)");
+               }});
+  k.push_back({"integrator", "seed", "integer", {}, kMustMatch,
+               "seed of the velocity generation and the thermostat's random stream",
+               [](const KeyInput& in, RunConfig& c) {
+                 const long seed = in.integer();
+                 in.require(seed >= 0, "seed must not be negative");
+                 c.integrator.seed = static_cast<std::uint64_t>(seed);
+               },
+               [](const RunConfig& c) { return std::to_string(c.integrator.seed); }});
+  k.push_back({"integrator", "thermostat", "string", {"none", "v-rescale"}, kMustMatch,
+               "v-rescale (Bussi) with verlet and rattle; needs temperature",
+               [](const KeyInput& in, RunConfig& c) { c.integrator.thermostat = in.choice(); },
+               [](const RunConfig& c) { return c.integrator.thermostat; }});
+  k.push_back({"integrator", "tau_t", "number, ps", {}, kMustMatch, "the thermostat's time constant",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.tau_t = in.number();
+                 in.require(c.integrator.tau_t >= 0, "tau_t must not be negative (ps)");
+               },
+               [](const RunConfig& c) { return exact_text(c.integrator.tau_t); }});
+  k.push_back({"integrator", "emtol", "number, kJ/mol/nm", {}, kMustMatch,
+               "minimize: stop when the largest constrained force is below this",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.emtol = in.number();
+                 in.require(c.integrator.emtol > 0, "emtol must be positive (kJ/mol/nm)");
+               },
+               [](const RunConfig& c) { return exact_text(c.integrator.emtol); }});
+  k.push_back({"integrator", "emstep", "number, nm", {}, kMustMatch, "minimize: the first step's largest displacement",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.emstep = in.number();
+                 in.require(c.integrator.emstep > 0, "emstep must be positive (nm)");
+               },
+               [](const RunConfig& c) { return exact_text(c.integrator.emstep); }});
+  k.push_back({"integrator", "method", "string", {}, kMustMatch,
+               "vi, rk: the tableau: euler heun2 midpoint rk3 rk4 rk38 rk6 rk8, or user ([integrator.tableau])",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.method = in.string();
+                 in.require(!c.integrator.method.empty(), "method must not be empty");
+               },
+               [](const RunConfig& c) { return c.integrator.method; }});
+  k.push_back({"integrator", "method_minus", "string", {}, kMustMatch,
+               "vi: the method of the left discrete Lagrangian (unset: the same as method)",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.method_minus = in.string();
+                 in.require(!c.integrator.method_minus->empty(), "method_minus must not be empty");
+               },
+               [](const RunConfig& c) { return c.integrator.method_minus.value_or("(same)"); }});
+  k.push_back({"integrator", "bias", "array of two numbers", {}, kMustMatch,
+               "vi: [alpha_minus, alpha_plus], where the discrete Lagrangians sit in the step",
+               [](const KeyInput& in, RunConfig& c) {
+                 const auto bias = in.numbers();
+                 in.require(bias.size() == 2, "bias must have two numbers [alpha_minus, alpha_plus]");
+                 c.integrator.bias = {bias[0], bias[1]};
+               },
+               [](const RunConfig& c) {
+                 return "[" + exact_text(c.integrator.bias[0]) + ", " + exact_text(c.integrator.bias[1]) + "]";
+               }});
+  k.push_back({"integrator", "projection", "string", {"euclidean", "mass"}, kMustMatch,
+               "vi: the metric of the projection onto the constraint manifold",
+               [](const KeyInput& in, RunConfig& c) { c.integrator.projection = in.choice(); },
+               [](const RunConfig& c) { return c.integrator.projection; }});
+  k.push_back({"integrator", "solver_tolerance", "number, nm/ps", {}, kMustMatch,
+               "vi: the step equations' tolerance (unset: the method's default)",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.solver_tolerance = in.number();
+                 in.require(*c.integrator.solver_tolerance > 0, "solver_tolerance must be positive");
+               },
+               [](const RunConfig& c) {
+                 return c.integrator.solver_tolerance ? exact_text(*c.integrator.solver_tolerance)
+                                                      : std::string("(default)");
+               }});
+  k.push_back({"integrator", "max_iterations", "integer", {}, kMustMatch,
+               "vi: iterations of a step's solve before it is an error",
+               [](const KeyInput& in, RunConfig& c) {
+                 const long iterations = in.integer();
+                 in.require(iterations >= 1 && iterations <= 1000000, "max_iterations must be between 1 and 1000000");
+                 c.integrator.max_iterations = static_cast<int>(iterations);
+               },
+               [](const RunConfig& c) { return integer_text(c.integrator.max_iterations); }});
+  k.push_back({"integrator", "acceleration", "string", {"none", "anderson"}, kMustMatch,
+               "vi: Anderson mixing of the step's fixed-point iteration",
+               [](const KeyInput& in, RunConfig& c) { c.integrator.acceleration = in.choice(); },
+               [](const RunConfig& c) { return c.integrator.acceleration; }});
+  k.push_back({"integrator", "solver_precision", "string", {"mixed", "double"}, kMustMatch,
+               "vi: mixed runs the pair kernels in single precision where the solve absorbs the rounding",
+               [](const KeyInput& in, RunConfig& c) { c.integrator.solver_precision = in.choice(); },
+               [](const RunConfig& c) { return c.integrator.solver_precision; }});
+  k.push_back({"integrator", "tableau", "table: a, b, c, order", {}, kMustMatch,
+               "[integrator.tableau]: a user's explicit tableau (a square, b, c = row sums of a if left out, "
+               "the order it claims, checked); method = \"user\"",
+               [](const KeyInput& in, RunConfig& c) { c.integrator.tableau = in.tableau(); },
+               [](const RunConfig& c) { return tableau_text(c.integrator.tableau); }});
+  // --- [output]
+  k.push_back({"output", "dir", "path", {}, kMayChange, "output directory, relative to the run file (vimd run --out overrides it)",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.output.dir = in.string();
+                 in.require(!c.output.dir.empty(), "dir must not be empty");
+               },
+               [](const RunConfig& c) { return c.output.dir.string(); }});
+  k.push_back({"output", "trajectory_every", "integer, steps", {}, kMustMatch,
+               "frames of traj.trr (x, v, f, box); 0 disables",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.output.trajectory_every = in.integer();
+                 in.require(c.output.trajectory_every >= 0,
+                            "trajectory_every must not be negative (0 disables the trajectory)");
+               },
+               [](const RunConfig& c) { return integer_text(c.output.trajectory_every); }});
+  k.push_back({"output", "energy_every", "integer, steps", {}, kMustMatch,
+               "rows of energy.xvg/.csv; energies are computed only there (the trajectory is the same); 0 disables",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.output.energy_every = in.integer();
+                 in.require(c.output.energy_every >= 0, "energy_every must not be negative (0 disables the energy output)");
+               },
+               [](const RunConfig& c) { return integer_text(c.output.energy_every); }});
+  k.push_back({"output", "checkpoint_every", "integer, steps", {}, kMayChange,
+               "state.cpt every this many steps; 0: every 15 minutes of wall time. Always at a stop and at the end",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.output.checkpoint_every = in.integer();
+                 in.require(c.output.checkpoint_every >= 0,
+                            "checkpoint_every must not be negative (0: every 15 minutes of wall time and at the end)");
+               },
+               [](const RunConfig& c) { return integer_text(c.output.checkpoint_every); }});
+  return k;
+}
+
+}  // namespace
+
+// The closest choice, when it is close enough to be a plausible typo.
+std::optional<std::string> nearest_word(const std::string& word, const std::vector<std::string>& choices) {
+  const auto best = *std::min_element(choices.begin(), choices.end(), [&](const auto& x, const auto& y) {
+    return levenshtein(word, x) < levenshtein(word, y);
+  });
+  if (levenshtein(word, best) > std::max<std::size_t>(2, word.size() / 3)) return std::nullopt;
+  return best;
+}
+
+std::string KeyInput::choice() const {
+  const std::string value = string();
+  const auto& choices = key().choices;
+  if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
+    std::string list;
+    for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+    const auto suggestion = nearest_word(value, choices);
+    fail(key().name + " = \"" + value + "\" is not supported" +
+         (suggestion ? "; did you mean \"" + *suggestion + "\"?" : "") + " (choices: " + list + ")");
+  }
+  return value;
+}
+
+const std::vector<ConfigKey>& config_keys() {
+  static const std::vector<ConfigKey> keys = make_keys();
+  return keys;
+}
+
+const std::vector<std::string>& config_sections() {
+  static const std::vector<std::string> sections = {"system", "forcefield", "integrator", "output"};
+  return sections;
+}
+
+const ConfigKey* find_config_key(const std::string& section, const std::string& name) {
+  for (const ConfigKey& key : config_keys())
+    if (key.section == section && key.name == name) return &key;
+  return nullptr;
+}
+
+std::string exact_text(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.15g", x);
+  if (std::strtod(buf, nullptr) != x) std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+RunIdentity run_identity(const System& s, const RunConfig& config, long summary_every) {
+  Fingerprint topology;
+  topology.add_all(s.mass);
+  topology.add_all(s.charge);
+  topology.add_all(s.c6);
+  topology.add_all(s.c12);
+  for (int t : s.type) topology.add(t);
+  for (const Constraint& x : s.constraints) topology.add(x.i), topology.add(x.j), topology.add(x.length);
+  for (const Bond& x : s.bonds) topology.add(x.i), topology.add(x.j), topology.add(x.length), topology.add(x.k);
+  for (const Angle& x : s.angles)
+    topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.theta0), topology.add(x.force_constant);
+  RunIdentity identity = {
+      {"atoms", std::to_string(s.n_atoms())},
+      {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints)", topology.text()},
+      {"box", exact_text(s.box.length[0]) + " " + exact_text(s.box.length[1]) + " " + exact_text(s.box.length[2])}};
+  for (const ConfigKey& key : config_keys())
+    if (key.on_continue == OnContinue::must_match)
+      identity.emplace_back("[" + key.section + "] " + key.name, key.value(config));
+  identity.emplace_back("summary sampling (steps)", std::to_string(summary_every));
+  return identity;
+}
+
+std::vector<std::string> non_default_settings(const RunConfig& config) {
+  RunConfig defaults;
+  defaults.structure = config.structure;
+  defaults.topology = config.topology;
+  defaults.output.dir = config.output.dir;
+  std::vector<std::string> lines;
+  for (const std::string& section : config_sections()) {
+    std::string line;
+    for (const ConfigKey& key : config_keys()) {
+      if (key.section != section) continue;
+      const std::string value = key.value(config);
+      if (value != key.value(defaults)) line += (line.empty() ? "" : ", ") + key.name + " = " + value;
+    }
+    if (!line.empty()) lines.push_back("[" + section + "] " + line);
+  }
+  return lines;
+}
+
+std::string config_reference_markdown() {
+  const RunConfig defaults;
+  std::string out =
+      "# Run-file keys\n\n"
+      "<!-- Generated by `vimd keys --markdown` from engine/config_schema.cpp; tests/test_config.cpp checks it is "
+      "current. -->\n\n"
+      "A run file is TOML with the tables below; relative paths are relative to the run file. Units are "
+      "GROMACS's: nm, ps, amu, kJ/mol, e, K. An unknown or misspelt key is an error naming the file, the line "
+      "and the nearest valid key. *Continue* says whether `vimd run CONFIG --continue DIR` accepts a checkpoint "
+      "written under another value (\"must match\": it is refused, naming the key).\n";
+  for (const std::string& section : config_sections()) {
+    out += "\n## [" + section + "]\n\n| key | type | default | continue | meaning |\n|---|---|---|---|---|\n";
+    for (const ConfigKey& key : config_keys()) {
+      if (key.section != section) continue;
+      std::string type = key.type;
+      if (!key.choices.empty()) {
+        type += ": ";
+        for (std::size_t c = 0; c < key.choices.size(); ++c) type += (c ? " \\| " : "") + ("`" + key.choices[c] + "`");
+      }
+      std::string value = key.value(defaults);
+      if (section == "system") value = "(required)";
+      if (key.name == "tableau") value = "(none)";
+      out += "| `" + key.name + "` | " + type + " | `" + value + "` | " +
+             (key.on_continue == OnContinue::must_match ? "must match" : "may change") + " | " + key.help + " |\n";
+    }
+  }
+  return out;
+}
+
+}  // namespace vimd
