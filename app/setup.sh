@@ -2,7 +2,7 @@
 # Installs what vimd needs from Debian's packages (only what is missing) and builds it in build/.
 # Idempotent: a second run installs nothing and rebuilds only what changed.
 # With --fuzz it also installs clang and libFuzzer and builds the readers' fuzz targets in
-# build-fuzz/ (fuzz_gro, fuzz_top, fuzz_toml; see README.md).
+# build-fuzz/ (fuzz_gro, fuzz_top, fuzz_toml; see docs/user-guide.md).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 fuzz=0

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Hands a trajectory kept in memory by vimd's Python module to MDAnalysis (MemoryReader): 200
 RATTLE steps of water216, frames every 10 steps, then the O-O radial distribution function's first
-peak and the mean O-H bond length (rigid: 0.1 nm). Set-up: see README (PYTHONPATH=build/python)."""
+peak and the mean O-H bond length (rigid: 0.1 nm). Set-up: see docs/user-guide.md (PYTHONPATH=build/python)."""
 import pathlib
 import numpy as np
 import MDAnalysis as mda

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """RATTLE and the variational RK4 integrator on water216 from Python: total energy over 1 ps,
-plotted with matplotlib (validation/python_rattle_vs_vi.png). Set-up: see README (PYTHONPATH=build/python)."""
+plotted with matplotlib (validation/python_rattle_vs_vi.png). Set-up: see docs/user-guide.md (PYTHONPATH=build/python)."""
 import pathlib
 import matplotlib
 matplotlib.use("Agg")
