@@ -1,7 +1,8 @@
 #pragma once
-// The standard layer (spec §2): a one-step method Φ_τ for y = (q, v, S) with q' = v, v' = A(q,v),
+// The standard layer: a one-step method Φ_τ for y = (q, v, S) with q' = v, v' = A(q,v),
 // S' = L(q,v), S(0) = 0, over a signed time τ; a forward pass that keeps its stages, and the
-// vector–Jacobian product (discrete adjoint) ȳ₁·DΦ_τ(q, v).
+// vector–Jacobian product (discrete adjoint) ȳ₁·DΦ_τ(q, v) (docs/variational-integrator.md,
+// "The one-step method and its adjoint").
 #include <memory>
 #include <string>
 #include <vector>

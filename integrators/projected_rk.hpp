@@ -1,6 +1,7 @@
 #pragma once
 // Type "rk": the standard layer alone, Φ_h from the tableau, then positions projected onto the
-// constraints (P, spec §3) and velocities M-orthogonally onto the tangent space. Order p, but
+// constraints (P: docs/variational-integrator.md, "Projection onto the constraint manifold") and
+// velocities M-orthogonally onto the tangent space. Order p, but
 // neither symplectic nor momentum-conserving in the discrete sense: the baseline the variational
 // integrator is compared with.
 #include <memory>

@@ -1,5 +1,6 @@
 #pragma once
-// Test-only dense reference for the variational integrator (spec §7), for systems of a few atoms:
+// Test-only dense reference for the variational integrator, for systems of a few atoms (see
+// docs/variational-integrator.md, "What a correct implementation shows"):
 // the maps ∂⁻, ∂⁺, L_h written out directly (explicit RK on (q, v, S) with the acceleration from the
 // dense KKT system, projection by Newton on (x, θ)), their Jacobians by forward-mode automatic
 // differentiation (dual numbers), the discrete momenta from their defining equation with Lagrange
