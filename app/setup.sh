@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
-# Installs what vimd needs from Debian's packages (only what is missing) and builds it in build/.
+# Installs what vimd needs from Debian's packages (only what is missing) and builds in build/ the
+# targets named (default: the vimd program; "all" for everything, tests included).
 # Idempotent: a second run installs nothing and rebuilds only what changed.
 # With --fuzz it also installs clang and libFuzzer and builds the readers' fuzz targets in
 # build-fuzz/ (fuzz_gro, fuzz_top, fuzz_toml; see docs/user-guide.md).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 fuzz=0
-[[ "${1:-}" == --fuzz ]] && fuzz=1
+targets=()
+for arg in "$@"; do
+  if [[ $arg == --fuzz ]]; then fuzz=1; else targets+=("$arg"); fi
+done
+((${#targets[@]})) || targets=(vimd)
 
 packages=(g++ cmake make pkg-config libeigen3-dev libgtest-dev libtomlplusplus-dev libcli11-dev libhwy-dev
           gromacs time python3-numpy python3-scipy python3-matplotlib python3-mdanalysis
@@ -26,7 +31,7 @@ if ((${#missing[@]})); then
 fi
 
 cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build "$root/build" -j"$(nproc)"
+cmake --build "$root/build" -j"$(nproc)" --target "${targets[@]}"
 if ((fuzz)); then
   # clang is another compiler, so another tree.
   CXX=clang++ cmake -S "$root" -B "$root/build-fuzz" -DCMAKE_BUILD_TYPE=Release -DVIMD_FUZZ=ON >/dev/null

@@ -4,7 +4,7 @@
 # replay with AddressSanitizer + UndefinedBehaviorSanitizer (build-sanitize/) and runs them there.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-bash "$root/app/setup.sh"
+bash "$root/app/setup.sh" all
 cmake -S "$root" -B "$root/build-sanitize" -DCMAKE_BUILD_TYPE=Release -DVIMD_SANITIZE=ON >/dev/null
 cmake --build "$root/build-sanitize" -j"$(nproc)" --target sanitize_tests
 

@@ -31,7 +31,7 @@ def gmx_env(env=None):
     if "rdtscp" not in flags.split():
         if not RDTSCP_SHIM.is_file():
             raise RuntimeError(f"this CPU hides the rdtscp flag and GROMACS needs {RDTSCP_SHIM}: build it "
-                               "(bash app/setup.sh)")
+                               "(bash app/setup.sh gmx_rdtscp_shim)")
         env["LD_PRELOAD"] = " ".join(filter(None, [env.get("LD_PRELOAD", ""), str(RDTSCP_SHIM)]))
     return env
 
