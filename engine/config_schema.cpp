@@ -13,7 +13,6 @@ using Value = std::function<std::string(const RunConfig&)>;
 constexpr OnContinue kMustMatch = OnContinue::must_match;
 constexpr OnContinue kMayChange = OnContinue::may_change;
 
-std::string quoted(const std::string& s) { return "\"" + s + "\""; }
 std::string integer_text(long x) { return std::to_string(x); }
 
 // FNV-1a over the bytes of what is added: any change shows.
@@ -63,118 +62,151 @@ std::size_t levenshtein(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+// A key whose value is a number (or integer) field checked on its own, or a string field with a
+// fixed set of choices: the reader, the check and the value text from the field alone.
+template <auto Section, auto Field>
+ConfigKey number_key(std::string section, std::string name, std::string type, OnContinue on_continue, std::string help,
+                     bool (*valid)(double), std::string problem) {
+  return {std::move(section),
+          std::move(name),
+          std::move(type),
+          {},
+          on_continue,
+          std::move(help),
+          [valid, problem](const KeyInput& in, RunConfig& c) {
+            (c.*Section).*Field = in.number();
+            in.require(valid((c.*Section).*Field), problem);
+          },
+          [](const RunConfig& c) { return exact_text((c.*Section).*Field); }};
+}
+
+template <auto Section, auto Field>
+ConfigKey integer_key(std::string section, std::string name, std::string type, OnContinue on_continue, std::string help,
+                      bool (*valid)(long), std::string problem) {
+  return {std::move(section),
+          std::move(name),
+          std::move(type),
+          {},
+          on_continue,
+          std::move(help),
+          [valid, problem](const KeyInput& in, RunConfig& c) {
+            const long value = in.integer();
+            in.require(valid(value), problem);
+            (c.*Section).*Field = value;
+          },
+          [](const RunConfig& c) { return std::to_string((c.*Section).*Field); }};
+}
+
+template <auto Section, auto Field>
+ConfigKey choice_key(std::string section, std::string name, std::vector<std::string> choices, OnContinue on_continue,
+                     std::string help) {
+  return {std::move(section),
+          std::move(name),
+          "string",
+          std::move(choices),
+          on_continue,
+          std::move(help),
+          [](const KeyInput& in, RunConfig& c) { (c.*Section).*Field = in.choice(); },
+          [](const RunConfig& c) { return (c.*Section).*Field; }};
+}
+
 std::vector<ConfigKey> make_keys() {
   const std::vector<std::string> vdw_modifiers = {"none", "potential-shift", "force-switch", "potential-switch"};
   std::vector<ConfigKey> k;
   // --- [system]
-  k.push_back({"system", "structure", "path", {}, kMayChange,
+  k.push_back({"system",
+               "structure",
+               "path",
+               {},
+               kMayChange,
                "GROMACS .gro with positions (and velocities); relative to the run file. Required",
                [](const KeyInput& in, RunConfig& c) { c.structure = in.existing_file(); },
                [](const RunConfig& c) { return c.structure.string(); }});
-  k.push_back({"system", "topology", "path", {}, kMayChange,
+  k.push_back({"system",
+               "topology",
+               "path",
+               {},
+               kMayChange,
                "GROMACS .top; #include resolves next to the file, then GMXLIB or /usr/share/gromacs/top. Required",
                [](const KeyInput& in, RunConfig& c) { c.topology = in.existing_file(); },
                [](const RunConfig& c) { return c.topology.string(); }});
   // --- [forcefield]
-  k.push_back({"forcefield", "cutoff", "number, nm", {}, kMustMatch, "cut-off of LJ and Coulomb (rvdw = rcoulomb)",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.forcefield.cutoff = in.number();
-                 in.require(c.forcefield.cutoff > 0, "cutoff must be positive (nm)");
-               },
-               [](const RunConfig& c) { return exact_text(c.forcefield.cutoff); }});
-  k.push_back({"forcefield", "vdw_modifier", "string", vdw_modifiers, kMustMatch,
-               "LJ at the cut-off, as GROMACS's vdw-modifier",
-               [](const KeyInput& in, RunConfig& c) { c.forcefield.vdw_modifier = in.choice(); },
-               [](const RunConfig& c) { return c.forcefield.vdw_modifier; }});
-  k.push_back({"forcefield", "vdw_switch", "number, nm", {}, kMustMatch,
-               "start of the LJ switch (force-switch, potential-switch)",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.forcefield.vdw_switch = in.number();
-                 in.require(c.forcefield.vdw_switch >= 0, "vdw_switch must not be negative (nm)");
-               },
-               [](const RunConfig& c) { return exact_text(c.forcefield.vdw_switch); }});
-  k.push_back({"forcefield", "coulomb", "string", {"reaction-field", "cutoff", "none"}, kMustMatch,
-               "electrostatics: reaction field (epsilon_rf), plain cut-off, or none",
-               [](const KeyInput& in, RunConfig& c) { c.forcefield.coulomb = in.choice(); },
-               [](const RunConfig& c) { return c.forcefield.coulomb; }});
-  k.push_back({"forcefield", "coulomb_modifier", "string", {"none", "potential-switch"}, kMustMatch,
-               "potential-switch multiplies Coulomb by the switch (not a GROMACS option)",
-               [](const KeyInput& in, RunConfig& c) { c.forcefield.coulomb_modifier = in.choice(); },
-               [](const RunConfig& c) { return c.forcefield.coulomb_modifier; }});
-  k.push_back({"forcefield", "coulomb_switch", "number, nm", {}, kMustMatch,
-               "start of the Coulomb switch (required with coulomb_modifier = \"potential-switch\")",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.forcefield.coulomb_switch = in.number();
-                 in.require(c.forcefield.coulomb_switch >= 0, "coulomb_switch must not be negative (nm)");
-               },
-               [](const RunConfig& c) { return exact_text(c.forcefield.coulomb_switch); }});
-  k.push_back({"forcefield", "switch_smoothness", "integer, 2-6", {}, kMustMatch,
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::cutoff>(
+      "forcefield", "cutoff", "number, nm", kMustMatch, "cut-off of LJ and Coulomb (rvdw = rcoulomb)",
+      [](double v) { return v > 0; }, "cutoff must be positive (nm)"));
+  k.push_back(choice_key<&RunConfig::forcefield, &ForceFieldConfig::vdw_modifier>(
+      "forcefield", "vdw_modifier", vdw_modifiers, kMustMatch, "LJ at the cut-off, as GROMACS's vdw-modifier"));
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::vdw_switch>(
+      "forcefield", "vdw_switch", "number, nm", kMustMatch, "start of the LJ switch (force-switch, potential-switch)",
+      [](double v) { return v >= 0; }, "vdw_switch must not be negative (nm)"));
+  k.push_back(choice_key<&RunConfig::forcefield, &ForceFieldConfig::coulomb>(
+      "forcefield", "coulomb", {"reaction-field", "cutoff", "none"}, kMustMatch,
+      "electrostatics: reaction field (epsilon_rf), plain cut-off, or none"));
+  k.push_back(choice_key<&RunConfig::forcefield, &ForceFieldConfig::coulomb_modifier>(
+      "forcefield", "coulomb_modifier", {"none", "potential-switch"}, kMustMatch,
+      "potential-switch multiplies Coulomb by the switch (not a GROMACS option)"));
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::coulomb_switch>(
+      "forcefield", "coulomb_switch", "number, nm", kMustMatch,
+      "start of the Coulomb switch (required with coulomb_modifier = \"potential-switch\")",
+      [](double v) { return v >= 0; }, "coulomb_switch must not be negative (nm)"));
+  k.push_back({"forcefield",
+               "switch_smoothness",
+               "integer, 2-6",
+               {},
+               kMustMatch,
                "k: potential-switched pair potentials are C^k at both ends of the switch (2 is GROMACS's)",
                [](const KeyInput& in, RunConfig& c) {
                  const long smoothness = in.integer();
                  in.require(smoothness >= 2 && smoothness <= 6,
                             "switch_smoothness must be between 2 and 6 (continuous derivatives of a potential-switch "
-                            "pair potential; 2 is GROMACS's), got " + std::to_string(smoothness));
+                            "pair potential; 2 is GROMACS's), got " +
+                                std::to_string(smoothness));
                  c.forcefield.switch_smoothness = static_cast<int>(smoothness);
                },
                [](const RunConfig& c) { return integer_text(c.forcefield.switch_smoothness); }});
-  k.push_back({"forcefield", "epsilon_r", "number", {}, kMustMatch, "relative dielectric constant",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.forcefield.epsilon_r = in.number();
-                 in.require(c.forcefield.epsilon_r > 0, "epsilon_r must be positive");
-               },
-               [](const RunConfig& c) { return exact_text(c.forcefield.epsilon_r); }});
-  k.push_back({"forcefield", "epsilon_rf", "number", {}, kMustMatch,
-               "reaction-field dielectric constant; 0 means infinity",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.forcefield.epsilon_rf = in.number();
-                 in.require(c.forcefield.epsilon_rf >= 0, "epsilon_rf must not be negative (0 means infinity)");
-               },
-               [](const RunConfig& c) { return exact_text(c.forcefield.epsilon_rf); }});
-  k.push_back({"forcefield", "neighbor_skin", "number, nm", {}, kMustMatch,
-               "buffer of the pair list the kernels run over; re-pruned when an atom moved half of it",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.forcefield.neighbor_skin = in.number();
-                 in.require(c.forcefield.neighbor_skin >= 0, "neighbor_skin must not be negative (nm)");
-               },
-               [](const RunConfig& c) { return exact_text(c.forcefield.neighbor_skin); }});
-  k.push_back({"forcefield", "neighbor_search_skin", "number, nm", {}, kMustMatch,
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::epsilon_r>(
+      "forcefield", "epsilon_r", "number", kMustMatch, "relative dielectric constant", [](double v) { return v > 0; },
+      "epsilon_r must be positive"));
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::epsilon_rf>(
+      "forcefield", "epsilon_rf", "number", kMustMatch, "reaction-field dielectric constant; 0 means infinity",
+      [](double v) { return v >= 0; }, "epsilon_rf must not be negative (0 means infinity)"));
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::neighbor_skin>(
+      "forcefield", "neighbor_skin", "number, nm", kMustMatch,
+      "buffer of the pair list the kernels run over; re-pruned when an atom moved half of it",
+      [](double v) { return v >= 0; }, "neighbor_skin must not be negative (nm)"));
+  k.push_back({"forcefield",
+               "neighbor_search_skin",
+               "number, nm",
+               {},
+               kMustMatch,
                "buffer of the searched list it is pruned from (unset: neighbor_skin + 0.4, as the box allows)",
                [](const KeyInput& in, RunConfig& c) { c.forcefield.neighbor_search_skin = in.number(); },
                [](const RunConfig& c) {
                  return c.forcefield.neighbor_search_skin ? exact_text(*c.forcefield.neighbor_search_skin)
                                                           : std::string("(automatic)");
                }});
-  k.push_back({"forcefield", "precision", "string", {"double", "mixed"}, kMustMatch,
-               "mixed: pair forces in single precision, as GROMACS's default build (not with vi or rk)",
-               [](const KeyInput& in, RunConfig& c) { c.forcefield.precision = in.choice(); },
-               [](const RunConfig& c) { return c.forcefield.precision; }});
+  k.push_back(choice_key<&RunConfig::forcefield, &ForceFieldConfig::precision>(
+      "forcefield", "precision", {"double", "mixed"}, kMustMatch,
+      "mixed: pair forces in single precision, as GROMACS's default build (not with vi or rk)"));
   // --- [integrator]
-  k.push_back({"integrator", "type", "string", {"verlet", "shake", "rattle", "vi", "rk", "minimize"}, kMustMatch,
-               "the integrator (vi: variational from a Runge-Kutta method; rk: projected Runge-Kutta)",
-               [](const KeyInput& in, RunConfig& c) { c.integrator.type = in.choice(); },
-               [](const RunConfig& c) { return c.integrator.type; }});
-  k.push_back({"integrator", "dt", "number, ps", {}, kMustMatch, "time step",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.integrator.dt = in.number();
-                 in.require(c.integrator.dt > 0, "dt must be positive (ps)");
-               },
-               [](const RunConfig& c) { return exact_text(c.integrator.dt); }});
-  k.push_back({"integrator", "steps", "integer", {}, kMayChange, "steps to run (a continued run goes on up to it)",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.integrator.steps = in.integer();
-                 in.require(c.integrator.steps >= 0, "steps must not be negative");
-               },
-               [](const RunConfig& c) { return integer_text(c.integrator.steps); }});
-  k.push_back({"integrator", "constraint_tolerance", "number", {}, kMustMatch,
-               "relative deviation |r - d|/d each constraint is solved to",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.integrator.constraint_tolerance = in.number();
-                 in.require(c.integrator.constraint_tolerance > 0 && c.integrator.constraint_tolerance < 1,
-                            "constraint_tolerance is relative and must be in (0, 1)");
-               },
-               [](const RunConfig& c) { return exact_text(c.integrator.constraint_tolerance); }});
-  k.push_back({"integrator", "temperature", "number, K", {}, kMustMatch,
+  k.push_back(choice_key<&RunConfig::integrator, &IntegratorConfig::type>(
+      "integrator", "type", {"verlet", "shake", "rattle", "vi", "rk", "minimize"}, kMustMatch,
+      "the integrator (vi: variational from a Runge-Kutta method; rk: projected Runge-Kutta)"));
+  k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::dt>(
+      "integrator", "dt", "number, ps", kMustMatch, "time step", [](double v) { return v > 0; },
+      "dt must be positive (ps)"));
+  k.push_back(integer_key<&RunConfig::integrator, &IntegratorConfig::steps>(
+      "integrator", "steps", "integer", kMayChange, "steps to run (a continued run goes on up to it)",
+      [](long v) { return v >= 0; }, "steps must not be negative"));
+  k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::constraint_tolerance>(
+      "integrator", "constraint_tolerance", "number", kMustMatch,
+      "relative deviation |r - d|/d each constraint is solved to", [](double v) { return v > 0 && v < 1; },
+      "constraint_tolerance is relative and must be in (0, 1)"));
+  k.push_back({"integrator",
+               "temperature",
+               "number, K",
+               {},
+               kMustMatch,
                "generates velocities when the .gro has none; the thermostat's reference",
                [](const KeyInput& in, RunConfig& c) {
                  c.integrator.temperature = in.number();
@@ -183,7 +215,11 @@ std::vector<ConfigKey> make_keys() {
                [](const RunConfig& c) {
                  return c.integrator.temperature ? exact_text(*c.integrator.temperature) : std::string("(none)");
                }});
-  k.push_back({"integrator", "seed", "integer", {}, kMustMatch,
+  k.push_back({"integrator",
+               "seed",
+               "integer",
+               {},
+               kMustMatch,
                "seed of the velocity generation and the thermostat's random stream",
                [](const KeyInput& in, RunConfig& c) {
                  const long seed = in.integer();
@@ -191,44 +227,46 @@ std::vector<ConfigKey> make_keys() {
                  c.integrator.seed = static_cast<std::uint64_t>(seed);
                },
                [](const RunConfig& c) { return std::to_string(c.integrator.seed); }});
-  k.push_back({"integrator", "thermostat", "string", {"none", "v-rescale"}, kMustMatch,
-               "v-rescale (Bussi) with verlet and rattle; needs temperature",
-               [](const KeyInput& in, RunConfig& c) { c.integrator.thermostat = in.choice(); },
-               [](const RunConfig& c) { return c.integrator.thermostat; }});
-  k.push_back({"integrator", "tau_t", "number, ps", {}, kMustMatch, "the thermostat's time constant",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.integrator.tau_t = in.number();
-                 in.require(c.integrator.tau_t >= 0, "tau_t must not be negative (ps)");
-               },
-               [](const RunConfig& c) { return exact_text(c.integrator.tau_t); }});
-  k.push_back({"integrator", "emtol", "number, kJ/mol/nm", {}, kMustMatch,
-               "minimize: stop when the largest constrained force is below this",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.integrator.emtol = in.number();
-                 in.require(c.integrator.emtol > 0, "emtol must be positive (kJ/mol/nm)");
-               },
-               [](const RunConfig& c) { return exact_text(c.integrator.emtol); }});
-  k.push_back({"integrator", "emstep", "number, nm", {}, kMustMatch, "minimize: the first step's largest displacement",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.integrator.emstep = in.number();
-                 in.require(c.integrator.emstep > 0, "emstep must be positive (nm)");
-               },
-               [](const RunConfig& c) { return exact_text(c.integrator.emstep); }});
-  k.push_back({"integrator", "method", "string", {}, kMustMatch,
+  k.push_back(choice_key<&RunConfig::integrator, &IntegratorConfig::thermostat>(
+      "integrator", "thermostat", {"none", "v-rescale"}, kMustMatch,
+      "v-rescale (Bussi) with verlet and rattle; needs temperature"));
+  k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::tau_t>(
+      "integrator", "tau_t", "number, ps", kMustMatch, "the thermostat's time constant",
+      [](double v) { return v >= 0; }, "tau_t must not be negative (ps)"));
+  k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::emtol>(
+      "integrator", "emtol", "number, kJ/mol/nm", kMustMatch,
+      "minimize: stop when the largest constrained force is below this", [](double v) { return v > 0; },
+      "emtol must be positive (kJ/mol/nm)"));
+  k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::emstep>(
+      "integrator", "emstep", "number, nm", kMustMatch, "minimize: the first step's largest displacement",
+      [](double v) { return v > 0; }, "emstep must be positive (nm)"));
+  k.push_back({"integrator",
+               "method",
+               "string",
+               {},
+               kMustMatch,
                "vi, rk: the tableau: euler heun2 midpoint rk3 rk4 rk38 rk6 rk8, or user ([integrator.tableau])",
                [](const KeyInput& in, RunConfig& c) {
                  c.integrator.method = in.string();
                  in.require(!c.integrator.method.empty(), "method must not be empty");
                },
                [](const RunConfig& c) { return c.integrator.method; }});
-  k.push_back({"integrator", "method_minus", "string", {}, kMustMatch,
+  k.push_back({"integrator",
+               "method_minus",
+               "string",
+               {},
+               kMustMatch,
                "vi: the method of the left discrete Lagrangian (unset: the same as method)",
                [](const KeyInput& in, RunConfig& c) {
                  c.integrator.method_minus = in.string();
                  in.require(!c.integrator.method_minus->empty(), "method_minus must not be empty");
                },
                [](const RunConfig& c) { return c.integrator.method_minus.value_or("(same)"); }});
-  k.push_back({"integrator", "bias", "array of two numbers", {}, kMustMatch,
+  k.push_back({"integrator",
+               "bias",
+               "array of two numbers",
+               {},
+               kMustMatch,
                "vi: [alpha_minus, alpha_plus], where the discrete Lagrangians sit in the step",
                [](const KeyInput& in, RunConfig& c) {
                  const auto bias = in.numbers();
@@ -238,11 +276,14 @@ std::vector<ConfigKey> make_keys() {
                [](const RunConfig& c) {
                  return "[" + exact_text(c.integrator.bias[0]) + ", " + exact_text(c.integrator.bias[1]) + "]";
                }});
-  k.push_back({"integrator", "projection", "string", {"euclidean", "mass"}, kMustMatch,
-               "vi: the metric of the projection onto the constraint manifold",
-               [](const KeyInput& in, RunConfig& c) { c.integrator.projection = in.choice(); },
-               [](const RunConfig& c) { return c.integrator.projection; }});
-  k.push_back({"integrator", "solver_tolerance", "number, nm/ps", {}, kMustMatch,
+  k.push_back(choice_key<&RunConfig::integrator, &IntegratorConfig::projection>(
+      "integrator", "projection", {"euclidean", "mass"}, kMustMatch,
+      "vi: the metric of the projection onto the constraint manifold"));
+  k.push_back({"integrator",
+               "solver_tolerance",
+               "number, nm/ps",
+               {},
+               kMustMatch,
                "vi: the step equations' tolerance (unset: the method's default)",
                [](const KeyInput& in, RunConfig& c) {
                  c.integrator.solver_tolerance = in.number();
@@ -252,7 +293,11 @@ std::vector<ConfigKey> make_keys() {
                  return c.integrator.solver_tolerance ? exact_text(*c.integrator.solver_tolerance)
                                                       : std::string("(default)");
                }});
-  k.push_back({"integrator", "max_iterations", "integer", {}, kMustMatch,
+  k.push_back({"integrator",
+               "max_iterations",
+               "integer",
+               {},
+               kMustMatch,
                "vi: iterations of a step's solve before it is an error",
                [](const KeyInput& in, RunConfig& c) {
                  const long iterations = in.integer();
@@ -260,49 +305,45 @@ std::vector<ConfigKey> make_keys() {
                  c.integrator.max_iterations = static_cast<int>(iterations);
                },
                [](const RunConfig& c) { return integer_text(c.integrator.max_iterations); }});
-  k.push_back({"integrator", "acceleration", "string", {"none", "anderson"}, kMustMatch,
-               "vi: Anderson mixing of the step's fixed-point iteration",
-               [](const KeyInput& in, RunConfig& c) { c.integrator.acceleration = in.choice(); },
-               [](const RunConfig& c) { return c.integrator.acceleration; }});
-  k.push_back({"integrator", "solver_precision", "string", {"mixed", "double"}, kMustMatch,
-               "vi: mixed runs the pair kernels in single precision where the solve absorbs the rounding",
-               [](const KeyInput& in, RunConfig& c) { c.integrator.solver_precision = in.choice(); },
-               [](const RunConfig& c) { return c.integrator.solver_precision; }});
-  k.push_back({"integrator", "tableau", "table: a, b, c, order", {}, kMustMatch,
+  k.push_back(choice_key<&RunConfig::integrator, &IntegratorConfig::acceleration>(
+      "integrator", "acceleration", {"none", "anderson"}, kMustMatch,
+      "vi: Anderson mixing of the step's fixed-point iteration"));
+  k.push_back(choice_key<&RunConfig::integrator, &IntegratorConfig::solver_precision>(
+      "integrator", "solver_precision", {"mixed", "double"}, kMustMatch,
+      "vi: mixed runs the pair kernels in single precision where the solve absorbs the rounding"));
+  k.push_back({"integrator",
+               "tableau",
+               "table: a, b, c, order",
+               {},
+               kMustMatch,
                "[integrator.tableau]: a user's explicit tableau (a square, b, c = row sums of a if left out, "
                "the order it claims, checked); method = \"user\"",
                [](const KeyInput& in, RunConfig& c) { c.integrator.tableau = in.tableau(); },
                [](const RunConfig& c) { return tableau_text(c.integrator.tableau); }});
   // --- [output]
-  k.push_back({"output", "dir", "path", {}, kMayChange, "output directory, relative to the run file (vimd run --out overrides it)",
+  k.push_back({"output",
+               "dir",
+               "path",
+               {},
+               kMayChange,
+               "output directory, relative to the run file (vimd run --out overrides it)",
                [](const KeyInput& in, RunConfig& c) {
                  c.output.dir = in.string();
                  in.require(!c.output.dir.empty(), "dir must not be empty");
                },
                [](const RunConfig& c) { return c.output.dir.string(); }});
-  k.push_back({"output", "trajectory_every", "integer, steps", {}, kMustMatch,
-               "frames of traj.trr (x, v, f, box); 0 disables",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.output.trajectory_every = in.integer();
-                 in.require(c.output.trajectory_every >= 0,
-                            "trajectory_every must not be negative (0 disables the trajectory)");
-               },
-               [](const RunConfig& c) { return integer_text(c.output.trajectory_every); }});
-  k.push_back({"output", "energy_every", "integer, steps", {}, kMustMatch,
-               "rows of energy.xvg/.csv; energies are computed only there (the trajectory is the same); 0 disables",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.output.energy_every = in.integer();
-                 in.require(c.output.energy_every >= 0, "energy_every must not be negative (0 disables the energy output)");
-               },
-               [](const RunConfig& c) { return integer_text(c.output.energy_every); }});
-  k.push_back({"output", "checkpoint_every", "integer, steps", {}, kMayChange,
-               "state.cpt every this many steps; 0: every 15 minutes of wall time. Always at a stop and at the end",
-               [](const KeyInput& in, RunConfig& c) {
-                 c.output.checkpoint_every = in.integer();
-                 in.require(c.output.checkpoint_every >= 0,
-                            "checkpoint_every must not be negative (0: every 15 minutes of wall time and at the end)");
-               },
-               [](const RunConfig& c) { return integer_text(c.output.checkpoint_every); }});
+  k.push_back(integer_key<&RunConfig::output, &OutputConfig::trajectory_every>(
+      "output", "trajectory_every", "integer, steps", kMustMatch, "frames of traj.trr (x, v, f, box); 0 disables",
+      [](long v) { return v >= 0; }, "trajectory_every must not be negative (0 disables the trajectory)"));
+  k.push_back(integer_key<&RunConfig::output, &OutputConfig::energy_every>(
+      "output", "energy_every", "integer, steps", kMustMatch,
+      "rows of energy.xvg/.csv; energies are computed only there (the trajectory is the same); 0 disables",
+      [](long v) { return v >= 0; }, "energy_every must not be negative (0 disables the energy output)"));
+  k.push_back(integer_key<&RunConfig::output, &OutputConfig::checkpoint_every>(
+      "output", "checkpoint_every", "integer, steps", kMayChange,
+      "state.cpt every this many steps; 0: every 15 minutes of wall time. Always at a stop and at the end",
+      [](long v) { return v >= 0; },
+      "checkpoint_every must not be negative (0: every 15 minutes of wall time and at the end)"));
   return k;
 }
 
