@@ -1,5 +1,5 @@
 #pragma once
-// SETTLE's rotation and the velocity projection (engine/constraints.cpp) for a batch of rigid 3-site
+// SETTLE's rotation and the velocity projection (engine/settle.cpp) for a batch of rigid 3-site
 // molecules at once, in vectors of the chosen SIMD target (settle_kernels.cpp; simd::use_target
 // chooses for all kernels).
 namespace vimd {

@@ -14,7 +14,7 @@ StartReport constrain_start(const Problem& problem, State& state) {
   StartReport report;
   const Constraints& constraints = problem.constraints;
   if (constraints.empty()) return report;
-  const Eigen::VectorXd& w = problem.inverse_mass;
+  const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
   double shortest = constraints.list().front().length;
   for (const Constraint& c : constraints.list()) shortest = std::min(shortest, c.length);
 
@@ -29,7 +29,7 @@ StartReport constrain_start(const Problem& problem, State& state) {
     ++report.iterations;
     reference = x;
     x = y;
-    constraints.solve_positions(reference, x, w, kStartTolerance, state.step);
+    constraints.solve_positions(reference, x, inverse_mass, kStartTolerance, state.step);
     change = max_column_norm(x - reference);
     if (change <= 10 * kStartTolerance * shortest) break;
     if (report.iterations == kMaxIterations)
@@ -40,7 +40,7 @@ StartReport constrain_start(const Problem& problem, State& state) {
   state.q = x;
   if (state.v.cols() == state.q.cols()) {
     const Coords v0 = state.v;
-    constraints.project_velocities(state.q, state.v, w);
+    constraints.project_velocities(state.q, state.v, inverse_mass);
     report.velocity_change = max_column_norm(state.v - v0);
   }
   return report;

@@ -24,7 +24,7 @@ struct ProjectedRungeKutta::Work {
         mass_q(p.constraints, p.inverse_mass) {}
 
   // Positions onto Q, velocities onto the tangent space there, forces at the new positions.
-  void settle(const Coords& q, const Coords& v, State& state, long step) {
+  void project_and_evaluate(const Coords& q, const Coords& v, State& state, long step) {
     projection.project(q, projected, step);
     state.q = projected.x;
     state.v = v;
@@ -56,11 +56,11 @@ void ProjectedRungeKutta::init(Problem& problem, State& state) {
   check_start(problem, state);
   work_ = std::make_unique<Work>(problem, tableau_, projection_);
   // The start is on TQ already (the engine constrains it): only the forces there are needed.
-  Work& w = *work_;
-  problem.force_field.compute(state.q, w.forces);
-  state.f = w.forces.f;
-  state.potential = w.forces.potential;
-  state.energy_terms = w.forces.terms;
+  Work& work = *work_;
+  problem.force_field.compute(state.q, work.forces);
+  state.f = work.forces.f;
+  state.potential = work.forces.potential;
+  state.energy_terms = work.forces.terms;
 }
 
 void ProjectedRungeKutta::restore(Problem& problem, const State& state, const Carried&) {
@@ -74,11 +74,11 @@ void ProjectedRungeKutta::restore(Problem& problem, const State& state, const Ca
 StepReport ProjectedRungeKutta::step(Problem& problem, State& state) {
   if (!work_ || work_->problem != &problem)
     throw std::logic_error("ProjectedRungeKutta::step before init() for this problem");
-  Work& w = *work_;
-  w.rk.forward(w.dynamics, state.q, state.v, dt_, w.segment, &w.forces);
-  w.settle(w.segment.q, w.segment.v, state, state.step + 1);
+  Work& work = *work_;
+  work.rk.forward(work.dynamics, state.q, state.v, dt_, work.segment, &work.forces);
+  work.project_and_evaluate(work.segment.q, work.segment.v, state, state.step + 1);
   StepReport report;
-  report.iterations = w.projected.iterations;
+  report.iterations = work.projected.iterations;
   report.residual = problem.constraints.max_relative_deviation(state.q);
   return report;
 }

@@ -29,7 +29,7 @@ void check_projection_kind(const std::string& kind) {
 }
 
 Projection::Projection(const Constraints& constraints, const Eigen::VectorXd& inverse_mass, const std::string& kind)
-    : constraints_(constraints) {
+    : closest_point_(constraints) {
   check_projection_kind(kind);
   inverse_weights_ = kind == "mass" ? inverse_mass : Eigen::VectorXd::Ones(inverse_mass.size());
   length_scale_ = std::numeric_limits<double>::infinity();
@@ -44,8 +44,8 @@ void Projection::project(const Coords& y, ProjectedPoint& out, long step) {
   if (!std::isfinite(size))
     throw ConvergenceError("projection onto the constraints", step, 0, size, "non-finite positions");
   const double tolerance = 1e-13 * length_scale_ + 8 * std::numeric_limits<double>::epsilon() * size;
-  const Constraints::ClusterSolve solve =
-      constraints_.closest_point(y, inverse_weights_, tolerance, kMaxIterations, out.x, out.theta, out.s_factor);
+  const ClosestPoint::Outcome solve =
+      closest_point_.project(y, inverse_weights_, tolerance, kMaxIterations, out.x, out.theta, out.s_factor);
   if (!solve.converged)
     throw ConvergenceError("projection onto the constraints", step, solve.iterations, solve.residual,
                            "the step moved the positions too far from the constraint surface");
@@ -57,8 +57,8 @@ void Projection::pull_back(const ProjectedPoint& point, const Coords& p, Coords&
   const double size = max_abs(p);
   if (!std::isfinite(size))
     throw ConvergenceError("covector pull-back through the projection", step, 0, size, "non-finite momenta");
-  const Constraints::ClusterSolve solve = constraints_.pull_back(point.x, point.theta, point.s_factor, inverse_weights_,
-                                                                 p, 1e-14 * size, kMaxSweeps, p_hat);
+  const ClosestPoint::Outcome solve = closest_point_.pull_back(point.x, point.theta, point.s_factor, inverse_weights_,
+                                                               p, 1e-14 * size, kMaxSweeps, p_hat);
   if (!solve.converged)
     throw ConvergenceError("covector pull-back through the projection", step, solve.iterations, solve.residual,
                            "the projection multipliers are too large");

@@ -1,11 +1,12 @@
 #pragma once
-// Projection onto the constraint manifold Q (spec §3) and the tangent-space projections the
-// variational integrator needs.
+// Projection onto the constraint manifold Q (docs/variational-integrator.md, "Projection onto the
+// constraint manifold") and the tangent-space projections the variational integrator needs.
 //   P(y) = x  where  y = x + W⁻¹G(x)ᵀθ,  g(x) = 0     (W = I "euclidean", or W = M "mass")
 //   pull-back p̂ = p·DP(y):  [[I + Σθ_a H_a W⁻¹, Gᵀ], [G W⁻¹, 0]] [p̂; b] = [p; 0]
 #include <string>
 
 #include "engine/constraints.hpp"
+#include "integrators/closest_point.hpp"
 
 namespace vimd {
 
@@ -42,7 +43,7 @@ class Projection {
 
   // Newton with the Jacobian [[I, W⁻¹Gᵀ], [G, 0]] at the current iterate (the Σθ_aH_a block is
   // O(θ) and dropped, so convergence is linear with rate O(|θ|), G refreshed every iteration),
-  // each cluster of constraints on its own (Constraints::closest_point).
+  // each cluster of constraints on its own (ClosestPoint::project).
   // Throws ConvergenceError("projection onto the constraints", step, ...) when it cannot converge.
   void project(const Coords& y, ProjectedPoint& out, long step);
   // p_hat = p·DP(y) at a point from project(); iterated to round-off with G W⁻¹ Gᵀ as the
@@ -52,7 +53,7 @@ class Projection {
   const Eigen::VectorXd& inverse_weights() const { return inverse_weights_; }
 
  private:
-  const Constraints& constraints_;
+  ClosestPoint closest_point_;
   Eigen::VectorXd inverse_weights_;  // W⁻¹ per atom
   double length_scale_ = 1;          // shortest constraint length, for the stopping test
 };

@@ -20,25 +20,25 @@ void Rattle::init(Problem& problem, State& state) {
 
 StepReport Rattle::step(Problem& problem, State& state) {
   const Constraints& constraints = problem.constraints;
-  const Eigen::VectorXd& w = problem.inverse_mass;
+  const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
   StepReport report;
 
-  kick(w, state.f, 0.5 * dt_, state.v);
+  kick(inverse_mass, state.f, 0.5 * dt_, state.v);
   q_start_.resize(3, state.q.cols());
   for_each_atom(static_cast<int>(state.q.cols()), [&](int i) {
     q_start_.col(i) = state.q.col(i);
     state.q.col(i) += dt_ * state.v.col(i);
   });
   if (!constraints.empty()) {
-    report.iterations = constraints.solve_positions(q_start_, state.q, w, tolerance_, state.step + 1,
+    report.iterations = constraints.solve_positions(q_start_, state.q, inverse_mass, tolerance_, state.step + 1,
                                                     max_iterations_, nullptr, &report.residual);
     // The half-step velocity that carries q_n to the constrained q_{n+1}. (Its rounding error,
     // ~1e-13 relative, is far below the constraint tolerance.)
     parallel_assign(state.v, (state.q - q_start_) / dt_);
   }
   evaluate_forces(problem, state, forces_, problem.energies_due);
-  kick(w, state.f, 0.5 * dt_, state.v);
-  constraints.project_velocities(state.q, state.v, w);
+  kick(inverse_mass, state.f, 0.5 * dt_, state.v);
+  constraints.project_velocities(state.q, state.v, inverse_mass);
   thermostat_step(problem, state);
   return report;
 }

@@ -30,16 +30,16 @@ bool Shake::half_step_matches(const State& state) const {
 
 void Shake::compute_half_step(const Problem& problem, const State& state, bool keep_key) const {
   const Constraints& constraints = problem.constraints;
-  const Eigen::VectorXd& w = problem.inverse_mass;
+  const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
   HalfStep& h = next_;
   h.v = state.v;
-  kick(w, state.f, dt_, h.v);
+  kick(inverse_mass, state.f, dt_, h.v);
   h.q = state.q + dt_ * h.v;
   h.iterations = 0;
   h.residual = 0;
   if (!constraints.empty()) {
-    h.iterations = constraints.solve_positions(state.q, h.q, w, tolerance_, state.step + 1, max_iterations_, nullptr,
-                                               &h.residual);
+    h.iterations = constraints.solve_positions(state.q, h.q, inverse_mass, tolerance_, state.step + 1, max_iterations_,
+                                               nullptr, &h.residual);
     h.v = (h.q - state.q) / dt_;  // rounding error ~1e-13 relative, far below the tolerance
   }
   h.valid = keep_key;
