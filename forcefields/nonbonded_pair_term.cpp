@@ -140,13 +140,6 @@ void NonbondedPairTerm::check_atoms(const Coords& q) const {
                                 std::to_string(n_atoms_) + " atoms");
 }
 
-NonbondedPairTerm::Step* NonbondedPairTerm::step_of(TermStepState* state) {
-  if (!state) return nullptr;
-  auto* step = dynamic_cast<Step*>(state);
-  if (!step) throw std::logic_error("NonbondedPairTerm: a step state of another term");
-  return step;
-}
-
 void NonbondedPairTerm::keep_lists(Workspace& w, const Coords& q, Step* step) const {
   check_atoms(q);
   const bool single = mixed_ || w.single_kept;  // prune on single-precision positions where they are kept
@@ -197,7 +190,7 @@ PairViewOf<Real> NonbondedPairTerm::pair_view(Workspace& w, const Visit& visit) 
 
 bool NonbondedPairTerm::lists_pair(int a, int b, const TermStepState* step) const {
   constexpr int kC = NeighborList::kClusterSize, kH = NeighborList::kHalfSize;
-  const PairListView listed = visit(run_, step_of(const_cast<TermStepState*>(step))).list;
+  const PairListView listed = visit(run_, step_of(step)).list;
   auto holds = [&](int i_slot, int j_slot) {
     const int h = i_slot / kH;
     const std::uint32_t bit = 1u << ((i_slot % kH) * kC + j_slot % kC);
@@ -211,7 +204,7 @@ bool NonbondedPairTerm::lists_pair(int a, int b, const TermStepState* step) cons
 }
 
 std::size_t NonbondedPairTerm::visited_entries(const TermStepState* step) const {
-  return visit(run_, step_of(const_cast<TermStepState*>(step))).list.entries.size();
+  return visit(run_, step_of(step)).list.entries.size();
 }
 
 void NonbondedPairTerm::restore(const Carried& in) {

@@ -16,6 +16,7 @@
 // inside the cut-off; a Hessian–vector product handed them (TermEvaluation::masks) takes them
 // instead of finding those pairs by a mask pass of its own, with the same results (a
 // single-precision product also takes a double-precision pass's masks).
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -102,7 +103,15 @@ class NonbondedPairTerm : public ForceTerm {
   };
 
   Workspace fresh_workspace() const { return Workspace{fresh_lists_, mixed_}; }
-  static Step* step_of(TermStepState* state);
+  // The step state as this term's (null for none); State: TermStepState, const or not.
+  template <class State>
+  static auto* step_of(State* state) {
+    using Own = std::conditional_t<std::is_const_v<State>, const Step, Step>;
+    if (!state) return static_cast<Own*>(nullptr);
+    auto* step = dynamic_cast<Own*>(state);
+    if (!step) throw std::logic_error("NonbondedPairTerm: a step state of another term");
+    return step;
+  }
   // Keeps w's lists (`step`'s, else the regular one) valid at q and the slot arrays in their layout.
   void keep_lists(Workspace& w, const Coords& q, Step* step) const;
   static Visit visit(const Workspace& w, const Step* step);

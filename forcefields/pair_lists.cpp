@@ -40,21 +40,18 @@ PairLists::PairLists(const Box& box, double cutoff, double search_skin, double s
                      std::vector<std::vector<int>> exclusions)
     : skin_(skin), list_(box, cutoff, search_skin, std::move(exclusions)) {}
 
-void PairLists::search(const Coords& q, double allowed) {
+double PairLists::search(const Coords& q, double allowed) {
   const long builds = list_.builds();
-  list_.update(q, allowed);
+  const double moved = list_.update(q, allowed);
   if (list_.builds() != builds) searched_id_ = ++changes_;
+  return moved;
 }
 
 void PairLists::keep_regular(const Coords& q, double allowed, bool single) {
-  if (!pruning()) {
+  if (!pruning())
     search(q, allowed);
-  } else if (prunes_ == 0 || max_displacement(q, pruned_at_) > allowed) {
-    const long builds = list_.builds();
-    const double moved = list_.update(q, 0.5 * (list_.skin() - skin_));
-    if (list_.builds() != builds) searched_id_ = ++changes_;
-    prune(q, moved, single);
-  }
+  else if (prunes_ == 0 || max_displacement(q, pruned_at_) > allowed)
+    prune(q, search(q, 0.5 * (list_.skin() - skin_)), single);
 }
 
 void PairLists::prune(const Coords& q, double moved_since_search, bool single) {

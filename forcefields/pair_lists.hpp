@@ -99,7 +99,9 @@ class PairLists {
  private:
   bool pruning() const { return list_.skin() > skin_; }
   void keep_regular(const Coords& q, double allowed, bool single);
-  void search(const Coords& q, double allowed);
+  // Searches again unless every atom is within `allowed` of the last search; returns the largest
+  // displacement since the search (0 after a new one).
+  double search(const Coords& q, double allowed);
   // moved_since_search: the largest displacement from the search's positions to q.
   void prune(const Coords& q, double moved_since_search, bool single);
   // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
