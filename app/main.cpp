@@ -164,7 +164,7 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
 int energy_command(const fs::path& config_file, bool json) {
   std::unique_ptr<Model> m = load_and_warn(config_file);
   Forces forces;
-  m->force_field->compute(m->input.state.q, forces);
+  m->force_field->single_point(m->input.state.q, forces);
   const auto& names = m->force_field->energy_names();
   if (json) {
     std::printf("{");

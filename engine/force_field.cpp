@@ -11,44 +11,62 @@ void ForceField::add(std::unique_ptr<ForceTerm> term) {
   terms_.push_back(std::move(term));
 }
 
-void ForceField::compute(const Coords& q, Forces& out) { evaluate(q, out, true); }
+void ForceField::compute(const Coords& q, Forces& out, const Evaluation& how) { evaluate(q, out, true, how); }
 
-void ForceField::compute_forces(const Coords& q, Forces& out) { evaluate(q, out, false); }
+void ForceField::compute_forces(const Coords& q, Forces& out, const Evaluation& how) {
+  evaluate(q, out, false, how);
+}
 
-void ForceField::evaluate(const Coords& q, Forces& out, bool energies) {
+TermEvaluation ForceField::for_term(std::size_t k, const Evaluation& how, ForceMasks* keep) const {
+  TermEvaluation t;
+  t.single_precision = how.single_precision;
+  if (how.step && k < how.step->terms_.size()) t.step = how.step->terms_[k].get();
+  if (keep) t.keep_masks = &keep->terms_[k];
+  if (how.masks && k < how.masks->terms_.size()) t.masks = &how.masks->terms_[k];
+  return t;
+}
+
+void ForceField::evaluate(const Coords& q, Forces& out, bool energies, const Evaluation& how) {
   out.f.setZero(3, q.cols());
   out.terms.assign(names_.size(), energies ? 0.0 : std::numeric_limits<double>::quiet_NaN());
+  ForceMasks* keep = how.keep_masks ? &out.masks : nullptr;
+  if (keep) keep->terms_.resize(terms_.size());
   std::size_t offset = 0;
   for (std::size_t k = 0; k < terms_.size(); ++k) {
-    auto& t = terms_[k];
     const std::size_t n = name_counts_[k];
-    t->prepare(q);
-    t->add_forces(q, out.f, energies ? std::span<double>(out.terms).subspan(offset, n) : std::span<double>());
+    if (keep) keep->terms_[k].list_id = -1;
+    terms_[k]->add_forces(q, out.f, energies ? std::span<double>(out.terms).subspan(offset, n) : std::span<double>(),
+                          for_term(k, how, keep));
     offset += n;
   }
   out.potential = 0;
   for (double e : out.terms) out.potential += e;
-  ++force_evaluations_;
-  if (single_precision_) ++single_force_evaluations_;
+  ++evaluations_.force_evaluations;
+  if (how.single_precision && has_single_precision()) ++evaluations_.single_precision_force_evaluations;
 }
 
-void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out, const Evaluation& how) {
   out.setZero(3, q.cols());
-  for (auto& t : terms_) {
-    t->prepare(q);
-    t->add_hessian_vector(q, u, out);
+  for (std::size_t k = 0; k < terms_.size(); ++k) terms_[k]->add_hessian_vector(q, u, out, for_term(k, how, nullptr));
+  ++evaluations_.hessian_evaluations;
+  if (how.single_precision && has_single_precision()) ++evaluations_.single_precision_hessian_evaluations;
+}
+
+void ForceField::single_point(const Coords& q, Forces& out) const {
+  out.f.setZero(3, q.cols());
+  out.terms.assign(names_.size(), 0.0);
+  std::size_t offset = 0;
+  for (std::size_t k = 0; k < terms_.size(); ++k) {
+    terms_[k]->add_single_point(q, out.f, std::span<double>(out.terms).subspan(offset, name_counts_[k]));
+    offset += name_counts_[k];
   }
-  ++hessian_evaluations_;
-  if (single_precision_) ++single_hessian_evaluations_;
+  out.potential = 0;
+  for (double e : out.terms) out.potential += e;
 }
 
-void ForceField::fix_pair_set(const Coords* q) {
-  for (auto& t : terms_) t->fix_pair_set(q);
-}
-
-void ForceField::set_single_precision(bool on) {
-  for (auto& t : terms_) t->set_single_precision(on);
-  single_precision_ = on && has_single_precision();
+void ForceField::start_step(StepPairSet& pairs, const Coords& q) {
+  pairs.terms_.resize(terms_.size());
+  for (std::size_t k = 0; k < terms_.size(); ++k) terms_[k]->start_step(q, pairs.terms_[k]);
 }
 
 bool ForceField::has_single_precision() const {
@@ -57,22 +75,10 @@ bool ForceField::has_single_precision() const {
   return false;
 }
 
-long ForceField::neighbor_rebuilds() const {
-  long n = 0;
-  for (const auto& t : terms_) n += t->rebuilds();
-  return n;
-}
-
-long ForceField::neighbor_prunes() const {
-  long n = 0;
-  for (const auto& t : terms_) n += t->prunes();
-  return n;
-}
-
-double ForceField::neighbor_build_seconds() const {
-  double s = 0;
-  for (const auto& t : terms_) s += t->rebuild_seconds();
-  return s;
+WorkCounters ForceField::work() const {
+  WorkCounters w = evaluations_;
+  for (const auto& t : terms_) t->add_work(w);
+  return w;
 }
 
 Carried ForceField::save() const {

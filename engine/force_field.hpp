@@ -1,6 +1,11 @@
 #pragma once
 // The potential as a sum of terms. Forces are functions of positions only (RK stages are not
 // States). Every term provides energy, forces and a Hessian–vector product.
+//
+// How to evaluate travels with each evaluation (Evaluation): the precision, the variational
+// step's pair set, and the masks a force pass leaves for Hessian–vector products at the same
+// positions. The field itself has no modes to switch.
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -11,10 +16,97 @@
 
 namespace vimd {
 
+// Work counters, for cost reports (force-evaluation equivalents). Adding a counter is one line in
+// fields(): sums, differences, checkpoints and summary.json follow it.
+struct WorkCounters {
+  long force_evaluations = 0;
+  long hessian_evaluations = 0;
+  // Of those, the ones some term computed in single precision (Evaluation::single_precision).
+  long single_precision_force_evaluations = 0;
+  long single_precision_hessian_evaluations = 0;
+  long neighbor_rebuilds = 0;  // pair searches
+  long neighbor_prunes = 0;    // prunings of pair lists, step lists included
+  double neighbor_build_seconds = 0;  // wall time of those searches and prunings
+
+  // f(name, pointer to member) for every counter, in report order.
+  template <class F>
+  static void fields(F&& f) {
+    f("force_evaluations", &WorkCounters::force_evaluations);
+    f("hessian_evaluations", &WorkCounters::hessian_evaluations);
+    f("single_precision_force_evaluations", &WorkCounters::single_precision_force_evaluations);
+    f("single_precision_hessian_evaluations", &WorkCounters::single_precision_hessian_evaluations);
+    f("neighbor_rebuilds", &WorkCounters::neighbor_rebuilds);
+    f("neighbor_prunes", &WorkCounters::neighbor_prunes);
+    f("neighbor_build_seconds", &WorkCounters::neighbor_build_seconds);
+  }
+  WorkCounters& operator+=(const WorkCounters& b) {
+    fields([&](const char*, auto m) { this->*m += b.*m; });
+    return *this;
+  }
+  WorkCounters& operator-=(const WorkCounters& b) {
+    fields([&](const char*, auto m) { this->*m -= b.*m; });
+    return *this;
+  }
+  friend WorkCounters operator+(WorkCounters a, const WorkCounters& b) { return a += b; }
+  friend WorkCounters operator-(WorkCounters a, const WorkCounters& b) { return a -= b; }
+};
+
+// A term's state for one variational step (its pair set), kept by StepPairSet.
+struct TermStepState {
+  virtual ~TermStepState() = default;
+};
+
+// What a term's force pass leaves for a Hessian–vector product at the same positions: its pair
+// list's inside-cut-off masks, and which list and precision they belong to.
+struct TermMasks {
+  long list_id = -1;  // none
+  bool single_precision = false;
+  std::vector<std::uint32_t> bits;  // per list entry
+};
+
+// The masks of a whole force pass (ForceField::compute with Evaluation::keep_masks), per term.
+// Opaque to callers: they hand it back to ForceField::hessian_vector at the same positions.
+class ForceMasks {
+ private:
+  friend class ForceField;
+  std::vector<TermMasks> terms_;
+};
+
+// One variational step's pair set: ForceField::start_step(q) sets it up at the step's start q̂,
+// and every evaluation of the step passes it (Evaluation::step). The integrator owns it and reuses
+// it from step to step (a term may learn from the last step how far evaluations reach).
+class StepPairSet {
+ private:
+  friend class ForceField;
+  std::vector<std::unique_ptr<TermStepState>> terms_;  // per term; null for terms without a pair set
+};
+
 struct Forces {
   Coords f;                   // kJ/mol/nm
   double potential = 0;       // kJ/mol
   std::vector<double> terms;  // kJ/mol, aligned with ForceField::energy_names()
+  ForceMasks masks;           // with Evaluation::keep_masks
+};
+
+// How to evaluate, given with each evaluation.
+struct Evaluation {
+  // Single-precision pair arithmetic where a term has it (ForceTerm::has_single_precision): for
+  // the parts of a solve whose rounding the solve absorbs (VariationalSettings::mixed_precision_solve).
+  bool single_precision = false;
+  // The variational step whose evaluation this is (ForceField::start_step), or none.
+  StepPairSet* step = nullptr;
+  // compute/compute_forces: leave the inside-cut-off masks in Forces::masks.
+  bool keep_masks = false;
+  // hessian_vector: the masks of a force pass at exactly these positions (saves finding them).
+  const ForceMasks* masks = nullptr;
+};
+
+// The same, as one term sees it.
+struct TermEvaluation {
+  bool single_precision = false;
+  TermStepState* step = nullptr;
+  TermMasks* keep_masks = nullptr;
+  const TermMasks* masks = nullptr;
 };
 
 class ForceTerm {
@@ -23,29 +115,27 @@ class ForceTerm {
   // Names of the energies this term reports, e.g. {"lj", "coulomb"} for the nonbonded pair term.
   virtual std::vector<std::string> energy_names() const = 0;
   // Adds −∇V to f and the energies to energies[0..energy_names().size()); an empty `energies`
-  // asks for the forces only (a term may then skip the energy work).
-  virtual void add_forces(const Coords& q, Coords& f, std::span<double> energies) = 0;
+  // asks for the forces only (a term may then skip the energy work). A term with neighbour lists
+  // keeps them valid for q here.
+  virtual void add_forces(const Coords& q, Coords& f, std::span<double> energies,
+                          const TermEvaluation& how = {}) = 0;
   // Adds ∇²V(q) u to out.
-  virtual void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) = 0;
-  // Terms with neighbour lists keep them valid for q here (rebuilding when needed); the
-  // ForceField calls this before every evaluation, so no pair inside the cut-off is missed.
-  virtual void prepare(const Coords& /*q*/) {}
-  // Where the force jumps at the cut-off: fixes which pairs interact to those inside it at *q, until
-  // called with nullptr; every evaluation in between includes exactly these pairs, wherever they
-  // move (each pair potential continued smoothly past the cut-off), and no others, so a crossing
-  // cannot make the force jump between evaluations. Where the force is continuous there, the
-  // potential stays the truncated one, smooth enough and exact (see ForceField::fix_pair_set).
-  // Either way the evaluations in between are one step's, near *q: a term may visit a list cut to
-  // them (NonbondedPairTerm's step list), with the same results.
-  virtual void fix_pair_set(const Coords* /*q*/) {}
-  // Whether the term has single-precision kernels, and using them for forces and Hessian–vector
-  // products until called with false: for the parts of a solve whose rounding the solve absorbs
-  // (VariationalSettings::mixed_precision_solve).
+  virtual void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how = {}) = 0;
+  // add_forces as a fresh term would compute them at q, changing nothing of this term: an
+  // observation, which must not alter what later evaluations compute.
+  virtual void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const = 0;
+  // Where the force jumps at the cut-off: the pairs inside it at q, from here on fixed for every
+  // evaluation that passes the state (each pair potential continued smoothly past the cut-off), and
+  // no others, so a crossing cannot make the force jump between them. Where the force is
+  // continuous there, the potential stays the truncated one, smooth enough and exact (see
+  // ForceField::start_step). Either way the evaluations are one step's, near q: a term may visit a
+  // list cut to them (NonbondedPairTerm's step list), with the same results. `state` holds the
+  // last step's (null at first) and is replaced; terms without pairs leave it null.
+  virtual void start_step(const Coords& /*q*/, std::unique_ptr<TermStepState>& /*state*/) {}
+  // Whether the term has single-precision kernels (Evaluation::single_precision).
   virtual bool has_single_precision() const { return false; }
-  virtual void set_single_precision(bool /*on*/) {}
-  virtual long rebuilds() const { return 0; }
-  virtual long prunes() const { return 0; }
-  virtual double rebuild_seconds() const { return 0; }
+  // Adds this term's searches, prunings and their wall time.
+  virtual void add_work(WorkCounters& /*counters*/) const {}
   // Checkpoints: what changes results at round-off besides q (the neighbour list's build
   // positions: the list's order is the summation order), and rebuilding from it.
   virtual void save(Carried& /*out*/) const {}
@@ -57,33 +147,27 @@ class ForceField {
   void add(std::unique_ptr<ForceTerm> term);
   const std::vector<std::string>& energy_names() const { return names_; }
 
-  void compute(const Coords& q, Forces& out);
+  void compute(const Coords& q, Forces& out, const Evaluation& how = {});
   // The forces alone (the pair kernels skip the energy sums): out.potential and out.terms are NaN,
   // so that a use of energies nobody computed shows.
-  void compute_forces(const Coords& q, Forces& out);
+  void compute_forces(const Coords& q, Forces& out, const Evaluation& how = {});
   // out = ∇²V(q) u
-  void hessian_vector(const Coords& q, const Coords& u, Coords& out);
-  // Freezes the interacting pair set at q (nullptr releases it) of every term whose force jumps at
-  // the cut-off. Between the two calls its potential is V_q̂(x) = Σ over the pairs inside the
-  // cut-off at q̂ of the pair potentials, each continued analytically beyond the cut-off: a smooth
+  void hessian_vector(const Coords& q, const Coords& u, Coords& out, const Evaluation& how = {});
+  // Energies and forces at q as a freshly made field would compute them (pair lists built at q):
+  // an observation. Const: nothing the field keeps for later evaluations changes, so observing a
+  // state cannot change a trajectory. Not counted as work.
+  void single_point(const Coords& q, Forces& out) const;
+
+  // Sets `pairs` up for a variational step starting at q. The evaluations that pass it (Evaluation::step)
+  // see, from every term whose force jumps at the cut-off, V_q(x) = Σ over the pairs inside the
+  // cut-off at q of the pair potentials, each continued analytically beyond the cut-off: a smooth
   // function of x, which the variational integrator uses as one step's potential so that its step
   // equations are smooth. A term whose force is continuous at the cut-off keeps its true truncated
-  // potential: the solve converges on it, and the continuation would cost energy conservation
-  // (on water900, switched LJ + reaction field eps_rf = inf, vi rk4: 10x the RMS energy fluctuation).
-  void fix_pair_set(const Coords* q);
-  // Every term with a single-precision path uses it until called with false (ForceTerm::set_single_precision).
-  void set_single_precision(bool on);
+  // potential: the solve converges on it, and the continuation would cost energy conservation.
+  void start_step(StepPairSet& pairs, const Coords& q);
   bool has_single_precision() const;
 
-  // Work counters, for cost reports (force-evaluation equivalents), and how many of them some term
-  // computed in single precision.
-  long force_evaluations() const { return force_evaluations_; }
-  long hessian_evaluations() const { return hessian_evaluations_; }
-  long single_precision_force_evaluations() const { return single_force_evaluations_; }
-  long single_precision_hessian_evaluations() const { return single_hessian_evaluations_; }
-  long neighbor_rebuilds() const;
-  long neighbor_prunes() const;
-  double neighbor_build_seconds() const;
+  WorkCounters work() const;
   // Every term's save()/restore(), entries prefixed with the term's index.
   Carried save() const;
   void restore(const Carried& in);
@@ -91,45 +175,13 @@ class ForceField {
   const std::vector<std::unique_ptr<ForceTerm>>& terms() const { return terms_; }
 
  private:
-  void evaluate(const Coords& q, Forces& out, bool energies);
+  void evaluate(const Coords& q, Forces& out, bool energies, const Evaluation& how);
+  TermEvaluation for_term(std::size_t k, const Evaluation& how, ForceMasks* keep) const;
 
   std::vector<std::unique_ptr<ForceTerm>> terms_;
   std::vector<std::string> names_;
   std::vector<std::size_t> name_counts_;  // per term
-  long force_evaluations_ = 0;
-  long hessian_evaluations_ = 0;
-  bool single_precision_ = false;  // some term is in single precision now
-  long single_force_evaluations_ = 0;
-  long single_hessian_evaluations_ = 0;
-};
-
-// Single-precision pair arithmetic in `field` (where `on`) for the lifetime of the object.
-class SinglePrecisionScope {
- public:
-  SinglePrecisionScope(ForceField& field, bool on) : field_(field), on_(on) {
-    if (on_) field_.set_single_precision(true);
-  }
-  ~SinglePrecisionScope() {
-    if (on_) field_.set_single_precision(false);
-  }
-  SinglePrecisionScope(const SinglePrecisionScope&) = delete;
-  SinglePrecisionScope& operator=(const SinglePrecisionScope&) = delete;
-
- private:
-  ForceField& field_;
-  bool on_;
-};
-
-// Fixes the pair set of `field` at q for the lifetime of the object (one variational step).
-class FixedPairSet {
- public:
-  FixedPairSet(ForceField& field, const Coords& q) : field_(field) { field_.fix_pair_set(&q); }
-  ~FixedPairSet() { field_.fix_pair_set(nullptr); }
-  FixedPairSet(const FixedPairSet&) = delete;
-  FixedPairSet& operator=(const FixedPairSet&) = delete;
-
- private:
-  ForceField& field_;
+  WorkCounters evaluations_;  // the evaluation counts; the terms add theirs in work()
 };
 
 }  // namespace vimd

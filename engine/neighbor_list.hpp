@@ -55,7 +55,7 @@ class NeighborList {
   NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions);
 
   // Rebuilds when an atom has moved more than `allowed` nm since the last build (or never was
-  // built). skin/2 keeps every pair inside the cut-off listed; a pruned list (NonbondedPairTerm)
+  // built). skin/2 keeps every pair inside the cut-off listed; a pruned list (forcefields/pair_lists.hpp)
   // allows less, so that its inner range stays covered. Returns the largest displacement since
   // the build (0 after a rebuild).
   double update(const Coords& q, double allowed);

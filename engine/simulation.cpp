@@ -1,6 +1,7 @@
 #include "engine/simulation.hpp"
 
 #include <cmath>
+#include <type_traits>
 
 #include "engine/errors.hpp"
 #include "engine/start_state.hpp"
@@ -43,34 +44,6 @@ Sample Simulation::sample(const State& state, const StepReport& report) const {
 }
 
 namespace {
-
-// The force field's work counters, in their RunTotals fields (the others zero).
-RunTotals work_counters(const ForceField& ff) {
-  RunTotals t;
-  t.force_evaluations = ff.force_evaluations();
-  t.hessian_evaluations = ff.hessian_evaluations();
-  t.single_precision_force_evaluations = ff.single_precision_force_evaluations();
-  t.single_precision_hessian_evaluations = ff.single_precision_hessian_evaluations();
-  t.neighbor_rebuilds = ff.neighbor_rebuilds();
-  t.neighbor_prunes = ff.neighbor_prunes();
-  t.neighbor_build_seconds = ff.neighbor_build_seconds();
-  return t;
-}
-
-// The work counted from `earlier` to `later` (both from work_counters).
-RunTotals work_between(const RunTotals& earlier, const RunTotals& later) {
-  RunTotals t;
-  t.force_evaluations = later.force_evaluations - earlier.force_evaluations;
-  t.hessian_evaluations = later.hessian_evaluations - earlier.hessian_evaluations;
-  t.single_precision_force_evaluations =
-      later.single_precision_force_evaluations - earlier.single_precision_force_evaluations;
-  t.single_precision_hessian_evaluations =
-      later.single_precision_hessian_evaluations - earlier.single_precision_hessian_evaluations;
-  t.neighbor_rebuilds = later.neighbor_rebuilds - earlier.neighbor_rebuilds;
-  t.neighbor_prunes = later.neighbor_prunes - earlier.neighbor_prunes;
-  t.neighbor_build_seconds = later.neighbor_build_seconds - earlier.neighbor_build_seconds;
-  return t;
-}
 
 std::string atom_label(const System& system, int i) {
   std::string label = "atom " + std::to_string(i + 1);
@@ -144,14 +117,7 @@ void Simulation::write_checkpoint_now(const State& state, const RunInfo& info, c
   cp.force_field = problem_.force_field.save();
   cp.totals.put("start_time", start_time_);
   cp.totals.put("wall_seconds", totals.wall_seconds);
-  cp.totals.put("force_evaluations", static_cast<double>(totals.force_evaluations));
-  cp.totals.put("hessian_evaluations", static_cast<double>(totals.hessian_evaluations));
-  cp.totals.put("single_precision_force_evaluations", static_cast<double>(totals.single_precision_force_evaluations));
-  cp.totals.put("single_precision_hessian_evaluations",
-                static_cast<double>(totals.single_precision_hessian_evaluations));
-  cp.totals.put("neighbor_rebuilds", static_cast<double>(totals.neighbor_rebuilds));
-  cp.totals.put("neighbor_prunes", static_cast<double>(totals.neighbor_prunes));
-  cp.totals.put("neighbor_build_seconds", totals.neighbor_build_seconds);
+  WorkCounters::fields([&](const char* name, auto counter) { cp.totals.put(name, static_cast<double>(totals.*counter)); });
   cp.totals.put("solver_iterations", static_cast<double>(totals.solver_iterations));
   for (auto& o : observers_) cp.observers.push_back(o->checkpoint(info));
   write_checkpoint(checkpoints_.file, cp);
@@ -161,7 +127,7 @@ RunTotals Simulation::run(State& state, long steps) {
   RunInfo info{problem_,       integrator_, state.step, state.step + steps, state.step, dt_,
                problem_.force_field.energy_names(), integrator_.diagnostic_names()};
   // The start's force evaluations count.
-  work0_ = work_counters(problem_.force_field);
+  work0_ = problem_.force_field.work();
   // A later run continues the same state: constrained and set up already.
   if (!initialized_) {
     constrain_start(problem_, state);
@@ -193,18 +159,15 @@ RunTotals Simulation::resume(const Checkpoint& cp, long last_step, State& state)
   start_time_ = cp.totals.number("start_time");
   start_step_ = cp.first_step;
   // Only the work from here on counts on top of the checkpoint's totals.
-  work0_ = work_counters(problem_.force_field);
+  work0_ = problem_.force_field.work();
   wall0_ = std::chrono::steady_clock::now();
   RunTotals totals;
   totals.wall_seconds = cp.totals.number("wall_seconds");
-  totals.force_evaluations = static_cast<long>(cp.totals.number("force_evaluations"));
-  totals.hessian_evaluations = static_cast<long>(cp.totals.number("hessian_evaluations"));
-  auto count = [&](const char* name) { return cp.totals.has(name) ? static_cast<long>(cp.totals.number(name)) : 0L; };
-  totals.single_precision_force_evaluations = count("single_precision_force_evaluations");
-  totals.single_precision_hessian_evaluations = count("single_precision_hessian_evaluations");
-  totals.neighbor_rebuilds = static_cast<long>(cp.totals.number("neighbor_rebuilds"));
-  totals.neighbor_prunes = count("neighbor_prunes");
-  totals.neighbor_build_seconds = cp.totals.number("neighbor_build_seconds");
+  // A counter newer than the checkpoint starts at 0.
+  WorkCounters::fields([&](const char* name, auto counter) {
+    using Value = std::remove_reference_t<decltype(totals.*counter)>;
+    totals.*counter = cp.totals.has(name) ? static_cast<Value>(cp.totals.number(name)) : Value(0);
+  });
   totals.solver_iterations = static_cast<long>(cp.totals.number("solver_iterations"));
   for (std::size_t k = 0; k < observers_.size(); ++k) observers_[k]->resume(info, cp.observers[k]);
   return loop(state, info, totals);
@@ -227,7 +190,7 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
   auto totals_now = [&] {
     RunTotals t = base;
     t.wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count();
-    t.add(work_between(work0_, work_counters(problem_.force_field)));
+    static_cast<WorkCounters&>(t) += problem_.force_field.work() - work0_;
     t.steps = state.step - info.first_step;
     return t;
   };

@@ -37,27 +37,18 @@ struct RunInfo {
   std::vector<std::string> energy_names, diagnostic_names;
 };
 
-struct RunTotals {
+// The force field's work (WorkCounters) and the run's own.
+struct RunTotals : WorkCounters {
   double wall_seconds = 0;
   long steps = 0;
-  long force_evaluations = 0, hessian_evaluations = 0, neighbor_rebuilds = 0, neighbor_prunes = 0;
-  // Of those evaluations, the ones some term computed in single precision (ForceField::set_single_precision).
-  long single_precision_force_evaluations = 0, single_precision_hessian_evaluations = 0;
-  double neighbor_build_seconds = 0;  // wall time of those searches and prunings
   long solver_iterations = 0;  // summed StepReport::iterations
   int stop_signal = 0;         // the run stopped early, resumable, on this signal (0: it finished)
 
   // Accumulates the work of a later run of the same simulation.
   void add(const RunTotals& later) {
+    WorkCounters::operator+=(later);
     wall_seconds += later.wall_seconds;
     steps += later.steps;
-    force_evaluations += later.force_evaluations;
-    hessian_evaluations += later.hessian_evaluations;
-    single_precision_force_evaluations += later.single_precision_force_evaluations;
-    single_precision_hessian_evaluations += later.single_precision_hessian_evaluations;
-    neighbor_rebuilds += later.neighbor_rebuilds;
-    neighbor_prunes += later.neighbor_prunes;
-    neighbor_build_seconds += later.neighbor_build_seconds;
     solver_iterations += later.solver_iterations;
   }
 };
@@ -126,8 +117,7 @@ class Simulation {
   bool initialized_ = false;
   std::vector<std::unique_ptr<Observer>> observers_;
   CheckpointPolicy checkpoints_;
-  // Work counters of the force field when this process's counting began.
-  RunTotals work0_;  // the force field's work counters when this process's run started
+  WorkCounters work0_;  // the force field's work counters when this process's run started
   std::chrono::steady_clock::time_point wall0_;
   long start_step_ = 0;    // the run's first step
   double start_time_ = 0;  // ps, at the run's first step: time = start_time + (step − first_step) dt

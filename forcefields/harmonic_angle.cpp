@@ -48,8 +48,8 @@ T angle_energy_gradient(const T a[3], const T b[3], double k, double theta0, T g
 HarmonicAngleTerm::HarmonicAngleTerm(std::vector<Angle> angles, const Box& box)
     : angles_(std::move(angles)), box_(box) {}
 
-void HarmonicAngleTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies) {
-  const double energy = loop_.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
+void HarmonicAngleTerm::add_forces(BondedLoop& loop, const Coords& q, Coords& f, std::span<double> energies) const {
+  const double energy = loop.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
     const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));
     const Vec3 vb = box_.minimum_image(q.col(t.k) - q.col(t.j));
@@ -66,7 +66,7 @@ void HarmonicAngleTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   if (!energies.empty()) energies[0] += energy;
 }
 
-void HarmonicAngleTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+void HarmonicAngleTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation&) {
   loop_.run(static_cast<int>(angles_.size()), out, [&](int n, Coords& target) {
     const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));

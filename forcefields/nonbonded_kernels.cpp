@@ -45,7 +45,7 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfData<Real>& hi) 
 
 // kSharedSwitch: LJ and Coulomb are switched by the same S (same r_switch and smoothness); the
 // switch is then applied once, to their sum, instead of once for each. Real: the precision of the
-// pair arithmetic and of the force sums (float: the mixed-precision kernel). kEnergies: also the
+// pair arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched).
 template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real, bool kEnergies>
 void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
@@ -240,13 +240,18 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
 }
 
 template <class Real>
-void mask_halves(const PairViewOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
+void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
   const int lanes = V::lanes();
   const V range2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
-    HalfData<Real> hi;
-    load_half(d, h, hi);
+    const int ib = h * kH;
+    Real xi[kH], yi[kH], zi[kH];
+    for (int ii = 0; ii < kH; ++ii) {
+      xi[ii] = d.x[ib + ii];
+      yi[ii] = d.y[ib + ii];
+      zi[ii] = d.z[ib + ii];
+    }
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       if (entry.nearest >= skip_from) {
@@ -262,7 +267,7 @@ void mask_halves(const PairViewOf<Real>& d, int h0, int h1, double skip_from, st
         // Every lane, listed or not (padding and excluded pairs have finite distances too); the
         // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
         for (int ii = 0; ii < kH; ++ii) {
-          const V dx = V::broadcast(hi.x[ii]) - xj, dy = V::broadcast(hi.y[ii]) - yj, dz = V::broadcast(hi.z[ii]) - zj;
+          const V dx = V::broadcast(xi[ii]) - xj, dy = V::broadcast(yi[ii]) - yj, dz = V::broadcast(zi[ii]) - zj;
           inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
         }
       }
@@ -342,18 +347,18 @@ HessianKernelOf<Real> hessian_kernel_for(VdwModifier m, bool coulomb, CoulombMod
 ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch, bool energies) {
   return force_kernel_for<double>(m, coulomb, c, shared_switch, energies);
 }
-MixedForceKernel MixedForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch,
-                                     bool energies) {
+SingleForceKernel SingleForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch,
+                                       bool energies) {
   return force_kernel_for<float>(m, coulomb, c, shared_switch, energies);
 }
 HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
   return hessian_kernel_for<double>(m, coulomb, c, shared_switch);
 }
-MixedHessianKernel MixedHessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
+SingleHessianKernel SingleHessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
   return hessian_kernel_for<float>(m, coulomb, c, shared_switch);
 }
 MaskKernel MaskKernelFor() { return mask_halves<double>; }
-MixedMaskKernel MixedMaskKernelFor() { return mask_halves<float>; }
+SingleMaskKernel SingleMaskKernelFor() { return mask_halves<float>; }
 std::int64_t Target() { return HWY_TARGET; }
 int Lanes() { return SimdDouble::lanes(); }
 
@@ -369,11 +374,11 @@ HWY_AFTER_NAMESPACE();
 namespace vimd {
 
 HWY_EXPORT(ForceKernelFor);
-HWY_EXPORT(MixedForceKernelFor);
+HWY_EXPORT(SingleForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
-HWY_EXPORT(MixedHessianKernelFor);
+HWY_EXPORT(SingleHessianKernelFor);
 HWY_EXPORT(MaskKernelFor);
-HWY_EXPORT(MixedMaskKernelFor);
+HWY_EXPORT(SingleMaskKernelFor);
 HWY_EXPORT(Target);
 HWY_EXPORT(Lanes);
 
@@ -393,10 +398,10 @@ ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier cou
   return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
 }
 
-MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                    bool shared_switch, bool energies) {
+SingleForceKernel single_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                      bool shared_switch, bool energies) {
   return checked(
-      HWY_DYNAMIC_DISPATCH(MixedForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
+      HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
 }
 
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
@@ -404,13 +409,13 @@ HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier
   return checked(HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
 }
 
-MixedHessianKernel mixed_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                        bool shared_switch) {
-  return checked(HWY_DYNAMIC_DISPATCH(MixedHessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+SingleHessianKernel single_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                          bool shared_switch) {
+  return checked(HWY_DYNAMIC_DISPATCH(SingleHessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
-MixedMaskKernel mixed_mask_kernel() { return HWY_DYNAMIC_DISPATCH(MixedMaskKernelFor)(); }
+SingleMaskKernel single_mask_kernel() { return HWY_DYNAMIC_DISPATCH(SingleMaskKernelFor)(); }
 
 std::string target_name() { return hwy::TargetName(HWY_DYNAMIC_DISPATCH(Target)()); }
 int lanes() { return HWY_DYNAMIC_DISPATCH(Lanes)(); }

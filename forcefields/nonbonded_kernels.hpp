@@ -14,22 +14,27 @@
 
 namespace vimd {
 
-// Everything the inner loops read, as plain pointers. Positions, charges and LJ parameters are in
-// slot order; lj_c6[t * n_slots + s] is c6 between type t and the atom in slot s (likewise c12),
-// so a j-cluster's parameters for an i atom are contiguous vector loads. Real: double, or float
-// for the mixed-precision force kernel.
+// What the mask kernels read: positions in slot order, a list and its range (cutoff2, nm²).
+// Real: double, or float for the single-precision kernels.
 template <class Real>
-struct PairViewOf {
+struct PairPositionsOf {
   const Real *x, *y, *z;
+  const NeighborList::Entry* entries;
+  const int* half_start;
+  const Vec3* shifts;
+  double cutoff2;
+};
+
+// Everything the pair loops read, as plain pointers. Positions, charges and LJ parameters are in
+// slot order; lj_c6[t * n_slots + s] is c6 between type t and the atom in slot s (likewise c12),
+// so a j-cluster's parameters for an i atom are contiguous vector loads.
+template <class Real>
+struct PairViewOf : PairPositionsOf<Real> {
   const Real* charge;
   const int* type;
   const Real *lj_c6, *lj_c12;
   const unsigned char* type_has_lj;  // per type: 1 if its c6 or c12 with some type is not zero
   std::size_t n_slots;
-  const NeighborList::Entry* entries;
-  const int* half_start;
-  const Vec3* shifts;
-  double cutoff2;
   LjConstants lj;
   ReactionField rf;
 };
@@ -42,27 +47,27 @@ using PairView = PairViewOf<double>;
 // inside_masks[e] receives the bits of entry e's pairs that counted.
 using ForceKernel = void (*)(const PairView&, int h0, int h1, double* fx, double* fy, double* fz, double* half_lj,
                              double* half_coulomb, std::uint32_t* inside_masks);
-// The same in mixed precision: pairs computed and forces accumulated in single precision (the
+// The same in single precision: pairs computed and forces accumulated in single precision (the
 // energies of a half summed in double), as GROMACS's default build does; about twice the pairs
-// per vector. For dynamics that tolerate force errors of ~1e-6 relative (RATTLE, SHAKE, Verlet),
-// and for the variational solve's first iteration of a step, whose error the double-precision
-// iterations after it correct.
-using MixedForceKernel = void (*)(const PairViewOf<float>&, int h0, int h1, float* fx, float* fy, float* fz,
-                                  double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
+// per vector. For dynamics that tolerate force errors of ~1e-6 relative (RATTLE, SHAKE, Verlet:
+// precision = "mixed"), and for the variational solve's first iteration of a step, whose error
+// the double-precision iterations after it correct.
+using SingleForceKernel = void (*)(const PairViewOf<float>&, int h0, int h1, float* fx, float* fy, float* fz,
+                                   double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
 // 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm).
-using MaskKernel = void (*)(const PairView&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
+using MaskKernel = void (*)(const PairPositionsOf<double>&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
 // The same on single-precision positions (twice the pairs per vector); its rounding is the
 // caller's to cover, with a cut-off a little beyond the range it needs.
-using MixedMaskKernel = void (*)(const PairViewOf<float>&, int h0, int h1, double skip_from,
+using SingleMaskKernel = void (*)(const PairPositionsOf<float>&, int h0, int h1, double skip_from,
                                  std::uint32_t* inside_masks);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz), over the pairs masks[e] selects in entry e:
 // those that interact (inside masks of a force or mask pass); the kernel does not test the cut-off.
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
                                const std::uint32_t* masks, int h0, int h1, double* ox, double* oy, double* oz);
 // The same in single precision, for the variational integrator's mixed-precision solve.
-using MixedHessianKernel = void (*)(const PairViewOf<float>&, const float* ux, const float* uy, const float* uz,
-                                    const std::uint32_t* masks, int h0, int h1, float* ox, float* oy, float* oz);
+using SingleHessianKernel = void (*)(const PairViewOf<float>&, const float* ux, const float* uy, const float* uz,
+                                     const std::uint32_t* masks, int h0, int h1, float* ox, float* oy, float* oz);
 
 namespace simd {
 
@@ -70,13 +75,13 @@ namespace simd {
 // the switch is evaluated once per pair, for their sum). energies: false for forces only.
 ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch,
                          bool energies);
-MixedForceKernel mixed_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                    bool shared_switch, bool energies);
+SingleForceKernel single_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                      bool shared_switch, bool energies);
 MaskKernel mask_kernel();
-MixedMaskKernel mixed_mask_kernel();
+SingleMaskKernel single_mask_kernel();
 HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
-MixedHessianKernel mixed_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                        bool shared_switch);
+SingleHessianKernel single_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
+                                          bool shared_switch);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
 std::string target_name();

@@ -13,19 +13,32 @@ ConstrainedDynamics::ConstrainedDynamics(Problem& problem) : problem_(problem) {
   coefficients_.setZero(d);
 }
 
+void ConstrainedDynamics::start_step(const Coords& q) {
+  problem_.force_field.start_step(step_pairs_, q);
+  in_step_ = true;
+}
+
+Evaluation ConstrainedDynamics::evaluation(bool single_precision) {
+  Evaluation how;
+  how.single_precision = single_precision;
+  how.step = in_step_ ? &step_pairs_ : nullptr;
+  return how;
+}
+
 void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q,
                                    bool segment_start) {
   const int n = n_atoms();
   const Eigen::VectorXd& w = inverse_mass();
   point.q = q;
   point.v = v;
-  const SinglePrecisionScope precision(problem_.force_field, single_precision_stages_ && !segment_start);
+  Evaluation how = evaluation(single_precision_stages_ && !segment_start);
+  how.keep_masks = keep_masks_;
   if (forces_at_q)
     point.forces = *forces_at_q;
   else if (energies_ == Energies::everywhere || (segment_start && problem_.energies_due))
-    problem_.force_field.compute(q, point.forces);
+    problem_.force_field.compute(q, point.forces, how);
   else
-    problem_.force_field.compute_forces(q, point.forces);
+    problem_.force_field.compute_forces(q, point.forces, how);
   const Coords& f = point.forces.f;
   point.a.resize(3, n);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
@@ -36,9 +49,11 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
 }
 
-void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coords& out) {
-  const SinglePrecisionScope precision(problem_.force_field, single_precision_products_);
-  problem_.force_field.hessian_vector(q, u, out);
+void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coords& out, const Forces* forces_at_q) {
+  keep_masks_ = true;
+  Evaluation how = evaluation(single_precision_products_);
+  if (forces_at_q) how.masks = &forces_at_q->masks;
+  problem_.force_field.hessian_vector(q, u, out, how);
 }
 
 void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
@@ -58,7 +73,7 @@ void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_ba
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) deferred_hvp->col(i) += u_tangent_.col(i);
   } else {
-    hessian_vector(point.q, u_tangent_, hessian_u_);
+    hessian_vector(point.q, u_tangent_, hessian_u_, &point.forces);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
   }

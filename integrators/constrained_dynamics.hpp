@@ -27,14 +27,17 @@ class ConstrainedDynamics {
   // (a variational step: the stages need forces alone, and the state it writes is a segment start).
   enum class Energies { everywhere, at_due_starts };
   void set_energies(Energies energies) { energies_ = energies; }
+  // Starts a variational step at q (ForceField::start_step): this and every later evaluation is
+  // over the step's pair set, until the next start.
+  void start_step(const Coords& q);
   // While on, the force field's single-precision pair kernels evaluate the stages inside a
   // segment (a segment's start stays double: its forces are the state's, and a solve reuses them),
   // and the Hessian–vector products. For a solve's first iteration, and its products where the
   // tolerance is far above their rounding (VariationalSettings::mixed_precision_solve).
   void set_single_precision_stages(bool on) { single_precision_stages_ = on; }
   void set_single_precision_products(bool on) { single_precision_products_ = on; }
-  // ∇²V(q) u, in the precision set above.
-  void hessian_vector(const Coords& q, const Coords& u, Coords& out);
+  // ∇²V(q) u, in the precision set above. forces_at_q: an evaluation at exactly q (its masks save work).
+  void hessian_vector(const Coords& q, const Coords& u, Coords& out, const Forces* forces_at_q = nullptr);
 
   // Evaluates the field at (q, v); `segment_start`: (q, v) starts a segment. `forces_at_q`, when
   // given, must be the forces at exactly this q and saves the force evaluation.
@@ -58,6 +61,12 @@ class ConstrainedDynamics {
   Problem& problem_;
   Energies energies_ = Energies::everywhere;
   bool single_precision_stages_ = false, single_precision_products_ = false;
+  StepPairSet step_pairs_;
+  bool in_step_ = false;
+  // Once a Hessian–vector product has been asked for, force passes keep their masks for the
+  // products at their positions (before that, force-only use pays nothing).
+  bool keep_masks_ = false;
+  Evaluation evaluation(bool single_precision);
   // Scratch, sized once, so evaluations do not allocate.
   Coords u_tangent_, hessian_u_;
   Eigen::VectorXd z_, coefficients_;

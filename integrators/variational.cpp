@@ -237,7 +237,7 @@ void VariationalIntegrator::residual(Work& w, const Coords& q, const Coords& v, 
     w.plus.vjp(w.dynamics, w.seg_plus, w.p_hat, nullptr, 1.0, w.rho_q, w.rho_v, &w.start_direction);
     w.projection.pull_back(w.proj_minus, p_minus, w.p_hat, step);
     w.minus.vjp(w.dynamics, w.seg_minus, w.p_hat, nullptr, -1.0, w.minus_q, w.minus_v, &w.start_direction);
-    w.dynamics.hessian_vector(q, w.start_direction, w.p_hat);
+    w.dynamics.hessian_vector(q, w.start_direction, w.p_hat, &w.seg_plus.stages[0].forces);
     for_each_atom(n, [&](int i) {
       w.rho_q.col(i) += w.minus_q.col(i) - w.p_hat.col(i);
       w.rho_v.col(i) += w.minus_v.col(i);
@@ -322,7 +322,7 @@ void VariationalIntegrator::init(Problem& problem, State& state) {
   // The start is on TQ already (the engine constrains it, the same for every integrator): take it as it is.
   w.q = state.q;
   w.v = state.v;
-  const FixedPairSet pair_set(problem.force_field, w.q);  // as a step from w₀ would fix it (see step())
+  w.dynamics.start_step(w.q);  // the pair set as a step from w₀ would fix it (see step())
   forward_segments(w, w.q, w.v, state.step);
 
   // p⁺(w₀), p⁻(w₀) with w₀ fixed: the same residual, p̄ replaced by the unknown p⁻ (spec §6, init).
@@ -505,10 +505,10 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   // (known before the solve), each continued smoothly past the cut-off. The step's discrete
   // Lagrangian L_h,k is then smooth, so the iteration converges to any tolerance; the steps'
   // Lagrangians differ only by pairs at the cut-off. (Where the force is continuous there, the
-  // true potential is kept: see ForceField::fix_pair_set.) The map (q̄_k, p̄_k) ↦ (q̄_k+1, p̄_k+1)
+  // true potential is kept: see ForceField::start_step.) The map (q̄_k, p̄_k) ↦ (q̄_k+1, p̄_k+1)
   // is still the one of a discrete Lagrangian (L_h,k for this step), hence symplectic, and V_k is
   // translation invariant, so Σ p̄ is conserved.
-  const FixedPairSet pair_set(problem.force_field, w.qbar);
+  w.dynamics.start_step(w.qbar);
   predict(w, state, step);
   w.history_start = 0;
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.

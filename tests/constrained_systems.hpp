@@ -160,7 +160,11 @@ class SpringsAndSoftRepulsion : public ForceTerm {
   }
   std::vector<std::string> energy_names() const override { return {"springs", "repulsion"}; }
 
-  void add_forces(const Coords& q, Coords& f, std::span<double> energies) override {
+  // Stateless: its forces are a single point's.
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& = {}) override {
+    add_single_point(q, f, energies);
+  }
+  void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const override {
     double unwanted[2] = {};  // forces only: the energies are computed and dropped
     if (energies.empty()) energies = unwanted;
     for (const Bond& b : springs_) {
@@ -183,7 +187,7 @@ class SpringsAndSoftRepulsion : public ForceTerm {
     }
   }
 
-  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override {
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& = {}) override {
     for (const Bond& b : springs_) {
       const Vec3 d = box_.minimum_image(q.col(b.i) - q.col(b.j));
       const double r = d.norm();

@@ -553,7 +553,11 @@ class PairListLJ : public ForceTerm {
  public:
   explicit PairListLJ(std::vector<DenseSystem::Pair> pairs) : pairs_(std::move(pairs)) {}
   std::vector<std::string> energy_names() const override { return {"lj"}; }
-  void add_forces(const Coords& q, Coords& f, std::span<double> energies) override {
+  // Stateless: its forces are a single point's.
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& = {}) override {
+    add_single_point(q, f, energies);
+  }
+  void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const override {
     double unwanted[1] = {};  // forces only: the energies are computed and dropped
     if (energies.empty()) energies = unwanted;
     for (const auto& p : pairs_) {
@@ -566,7 +570,7 @@ class PairListLJ : public ForceTerm {
     }
   }
   // ∇²_r φ(|r|²) = 2φ′ I + 4φ″ r rᵀ, with φ′, φ″ derivatives in r².
-  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override {
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& = {}) override {
     for (const auto& p : pairs_) {
       Vec3 r = q.col(p.i) - q.col(p.j), du = u.col(p.i) - u.col(p.j);
       const double r2 = r.squaredNorm(), s2 = p.sigma * p.sigma / r2, s6 = s2 * s2 * s2;

@@ -108,20 +108,24 @@ struct TermResult {
   std::vector<double> energies;
   Coords f;
 };
-inline TermResult evaluate(ForceTerm& term, const Coords& q) {
+inline TermResult evaluate(ForceTerm& term, const Coords& q, const TermEvaluation& how = {}) {
   TermResult r;
   r.energies.assign(term.energy_names().size(), 0.0);
   r.f.setZero(3, q.cols());
-  term.prepare(q);
-  term.add_forces(q, r.f, r.energies);
+  term.add_forces(q, r.f, r.energies, how);
   for (double e : r.energies) r.energy += e;
   return r;
 }
-inline Coords hessian_vector(ForceTerm& term, const Coords& q, const Coords& u) {
+inline Coords hessian_vector(ForceTerm& term, const Coords& q, const Coords& u, const TermEvaluation& how = {}) {
   Coords out = Coords::Zero(3, q.cols());
-  term.prepare(q);
-  term.add_hessian_vector(q, u, out);
+  term.add_hessian_vector(q, u, out, how);
   return out;
+}
+// A term's searches, prunings and their time.
+inline WorkCounters work(const ForceTerm& term) {
+  WorkCounters w;
+  term.add_work(w);
+  return w;
 }
 
 // ‖a − b‖ / ‖b‖ (‖b‖ taken as 1 when b is zero).

@@ -547,35 +547,46 @@ TEST(SwitchSmoothness, BadSettingsAreRefused) {
   EXPECT_THROW(make_reaction_field("none", 1.0, 0.0, 0.9, "potential-switch", 0.5, 2), InputError);
 }
 
-// The Hessian–vector pass reuses the cut-off masks of a force evaluation at bitwise the same
-// positions; it must give exactly what the full pass gives, and only at those positions.
+// A Hessian–vector product handed the cut-off masks of a force pass at the same positions takes
+// them; it must give exactly what the full pass gives, and take them only for the list they belong to.
 TEST(NonbondedPairTerm, HessianReuseOfForcePassIsExact) {
   auto [system, q] = testing::water_like_system(200, Vec3(2.5, 2.5, 2.5), 9);
   const auto config = testing::pair_config("potential-switch", "reaction-field", 78.0);
   const Coords u = random_direction(system.n_atoms(), 4);
   NonbondedPairTerm fresh(system, config), reused(system, config);
   const Coords reference = hessian_vector(fresh, q, u);  // no force evaluation: full pass
-  EXPECT_EQ(fresh.hessian_cache_hits(), 0);
-  hessian_vector(reused, q, u);  // asks for Hessians: from now on force passes record masks
-  evaluate(reused, q);
-  const Coords again = hessian_vector(reused, q, u);
-  EXPECT_EQ(reused.hessian_cache_hits(), 1);
+  EXPECT_EQ(fresh.reused_masks(), 0);
+  TermMasks masks;
+  TermEvaluation keep;
+  keep.keep_masks = &masks;
+  evaluate(reused, q, keep);
+  TermEvaluation with_masks;
+  with_masks.masks = &masks;
+  const Coords again = hessian_vector(reused, q, u, with_masks);
+  EXPECT_EQ(reused.reused_masks(), 1);
   EXPECT_EQ((again - reference).cwiseAbs().maxCoeff(), 0.0);
-  // Other positions (here: moved by 1e-9 nm, no rebuild) must not use those masks.
-  Coords moved = q;
-  moved(0, 0) += 1e-9;
-  const Coords at_moved = hessian_vector(reused, moved, u);
-  EXPECT_EQ(reused.hessian_cache_hits(), 1);
-  EXPECT_LT(relative_difference(at_moved, hessian_vector(fresh, moved, u)), 1e-15);
   // Several stage positions in a row, then their products in reverse order (as an RK reverse pass).
   std::vector<Coords> stages;
+  std::vector<TermMasks> stage_masks(5);
   for (int k = 0; k < 5; ++k) {
     stages.push_back(q + 1e-3 * k * u);
-    evaluate(reused, stages.back());
+    keep.keep_masks = &stage_masks[k];
+    evaluate(reused, stages.back(), keep);
   }
-  for (int k = 4; k >= 0; --k)
-    EXPECT_EQ((hessian_vector(reused, stages[k], u) - hessian_vector(fresh, stages[k], u)).cwiseAbs().maxCoeff(), 0.0);
-  EXPECT_EQ(reused.hessian_cache_hits(), 6);
+  for (int k = 4; k >= 0; --k) {
+    with_masks.masks = &stage_masks[k];
+    EXPECT_EQ((hessian_vector(reused, stages[k], u, with_masks) - hessian_vector(fresh, stages[k], u))
+                  .cwiseAbs()
+                  .maxCoeff(),
+              0.0);
+  }
+  EXPECT_EQ(reused.reused_masks(), 6);
+  // After the list has changed (moved far enough to prune again), masks of the old list are not taken.
+  const Coords far = q + 0.2 * u / u.cwiseAbs().maxCoeff();
+  with_masks.masks = &masks;
+  const Coords at_far = hessian_vector(reused, far, u, with_masks);
+  EXPECT_EQ(reused.reused_masks(), 6);
+  EXPECT_EQ((at_far - hessian_vector(fresh, far, u)).cwiseAbs().maxCoeff(), 0.0);
 }
 
 TEST(HarmonicBondTerm, DerivativesMatchFiniteDifferences) {
@@ -635,7 +646,37 @@ TEST(ForceFieldRegistry, BuildsAllTermsWithTheirEnergyNames) {
   Coords expected = Coords::Zero(3, q.cols());
   for (const auto& term : field->terms()) expected += hessian_vector(*term, q, u);
   EXPECT_LT(relative_difference(hu, expected), 1e-14);
-  EXPECT_EQ(field->neighbor_rebuilds(), 1);
+  EXPECT_EQ(field->work().neighbor_rebuilds, 1);
+}
+
+// An observation (single_point) is what a fresh field computes, and leaves the field as it was:
+// the run's evaluations after it are bitwise those of a run never observed, whatever positions
+// were observed (here ones that would have forced a new search and pruning).
+TEST(ForceField, SinglePointChangesNothingTheRunComputes) {
+  auto [system, q] = testing::water_like_system(200, Vec3(2.5, 2.5, 2.5), 13);
+  const auto config = testing::pair_config("potential-switch", "reaction-field", 78.0);
+  auto observed = make_force_field(system, config), plain = make_force_field(system, config),
+       fresh = make_force_field(system, config);
+  const Coords u = random_direction(system.n_atoms(), 5);
+  const Coords elsewhere = q + 0.3 * u / u.cwiseAbs().maxCoeff();
+  Forces at_elsewhere, reference;
+  fresh->compute(elsewhere, reference);
+  const ForceField& as_observer = *observed;
+  as_observer.single_point(elsewhere, at_elsewhere);
+  EXPECT_EQ(at_elsewhere.terms, reference.terms);
+  EXPECT_EQ((at_elsewhere.f - reference.f).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(observed->work().neighbor_rebuilds, 0);
+  EXPECT_EQ(observed->work().force_evaluations, 0);
+  for (const Coords& at : {q, Coords(q + 1e-3 * u)}) {
+    Forces a, b;
+    observed->compute(at, a);
+    as_observer.single_point(elsewhere, at_elsewhere);
+    plain->compute(at, b);
+    EXPECT_EQ(a.terms, b.terms);
+    EXPECT_EQ((a.f - b.f).cwiseAbs().maxCoeff(), 0.0);
+  }
+  EXPECT_EQ(observed->work().neighbor_rebuilds, plain->work().neighbor_rebuilds);
+  EXPECT_EQ(observed->work().neighbor_prunes, plain->work().neighbor_prunes);
 }
 
 TEST(ForceFieldRegistry, RejectsBadConfiguration) {

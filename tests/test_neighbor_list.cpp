@@ -35,7 +35,7 @@ struct Reference {
 };
 
 // pairs_at: a pair (not excluded) counts if it is inside the cut-off there (default: at q), as
-// between ForceTerm::fix_pair_set(pairs_at) and its release where the force jumps at the cut-off.
+// in a step started at pairs_at (ForceTerm::start_step) where the force jumps at the cut-off.
 template <VdwModifier M>
 Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u,
                       const Coords* pairs_at = nullptr) {
@@ -126,19 +126,22 @@ Coords random_vectors(int n, std::mt19937_64& rng, double length) {
   return d;
 }
 
+// step: evaluate as that step's evaluations.
 void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q, const std::string& what,
-                                const Coords* pairs_at = nullptr) {
+                                const Coords* pairs_at = nullptr, TermStepState* step = nullptr) {
   std::mt19937_64 rng(99);
   const Coords u = random_vectors(static_cast<int>(q.cols()), rng, 1.0);
   const Reference ref = brute_force(term, s, q, u, pairs_at);
-  const auto got = testing::evaluate(term, q);
-  const Coords hu = testing::hessian_vector(term, q, u);
+  TermEvaluation how;
+  how.step = step;
+  const auto got = testing::evaluate(term, q, how);
+  const Coords hu = testing::hessian_vector(term, q, u, how);
   EXPECT_NEAR(got.energies[0], ref.lj, 1e-12 * ref.lj_scale) << what;
   EXPECT_NEAR(got.energies[1], ref.coulomb, 1e-12 * ref.coulomb_scale) << what;
   EXPECT_LT(relative_difference(got.f, ref.f), 1e-12) << what;
   EXPECT_LT(relative_difference(hu, ref.hu), 1e-12) << what;
   Coords forces_only = Coords::Zero(3, q.cols());
-  term.add_forces(q, forces_only, {});
+  term.add_forces(q, forces_only, {}, how);
   EXPECT_LT(relative_difference(forces_only, ref.f), 1e-12) << what << ", forces only";
   // Bit for bit: whether the energies are due must not change the trajectory.
   EXPECT_EQ((forces_only - got.f).cwiseAbs().maxCoeff(), 0.0) << what << ", forces only";
@@ -164,30 +167,41 @@ void expect_mixed_matches_brute_force(NonbondedPairTerm& term, const System& s, 
   EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what;
 }
 
-// set_single_precision (the variational solve's first iteration): forces and Hessian–vector
-// products from the single-precision kernels, to float accuracy; a product after a force pass at
-// the same positions reuses that pass's cut-off masks and gives the same result; and back in
-// double, the double results again.
+// Single-precision evaluations (the variational solve's first iteration): forces and Hessian–vector
+// products from the single-precision kernels, to float accuracy; a product handed the masks of a
+// force pass at the same positions takes them and gives the same result; and back in double, the
+// double results again.
 void expect_single_precision_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q,
                                                  const std::string& what) {
   std::mt19937_64 rng(98);
   const Coords u = random_vectors(static_cast<int>(q.cols()), rng, 1.0);
   const Reference ref = brute_force(term, s, q, u);
   ASSERT_TRUE(term.has_single_precision());
-  term.set_single_precision(true);
-  const Coords hu = testing::hessian_vector(term, q, u);
+  TermEvaluation single;
+  single.single_precision = true;
+  const Coords hu = testing::hessian_vector(term, q, u, single);
   const double hessian_error = relative_difference(hu, ref.hu);
   EXPECT_LT(hessian_error, 1e-5) << what;
   EXPECT_GT(hessian_error, 1e-12) << what << ": no single-precision rounding, is the single-precision HVP running?";
   Coords f = Coords::Zero(3, q.cols());
-  term.add_forces(q, f, {});
+  TermMasks masks;
+  TermEvaluation single_keeping = single;
+  single_keeping.keep_masks = &masks;
+  term.add_forces(q, f, {}, single_keeping);
   const double force_error = relative_difference(f, ref.f);
   EXPECT_LT(force_error, 1e-5) << what;
   EXPECT_GT(force_error, 1e-12) << what << ": no single-precision rounding, are the single-precision forces running?";
-  const long hits = term.hessian_cache_hits();
-  EXPECT_EQ((testing::hessian_vector(term, q, u) - hu).cwiseAbs().maxCoeff(), 0.0) << what << ", masks reused";
-  EXPECT_EQ(term.hessian_cache_hits(), hits + 1) << what;
-  term.set_single_precision(false);
+  const long hits = term.reused_masks();
+  TermEvaluation single_with_masks = single;
+  single_with_masks.masks = &masks;
+  EXPECT_EQ((testing::hessian_vector(term, q, u, single_with_masks) - hu).cwiseAbs().maxCoeff(), 0.0)
+      << what << ", masks reused";
+  EXPECT_EQ(term.reused_masks(), hits + 1) << what;
+  // A double-precision product does not take single-precision masks.
+  TermEvaluation double_with_masks;
+  double_with_masks.masks = &masks;
+  EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u, double_with_masks), ref.hu), 1e-12) << what;
+  EXPECT_EQ(term.reused_masks(), hits + 1) << what;
   EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what << ", double again";
   f.setZero();
   term.add_forces(q, f, {});
@@ -196,14 +210,15 @@ void expect_single_precision_matches_brute_force(NonbondedPairTerm& term, const 
   const Coords moved = q + random_vectors(static_cast<int>(q.cols()), rng, 1e-3);
   const Reference moved_ref = brute_force(term, s, moved, u);
   f.setZero();
-  term.add_forces(moved, f, {});
-  term.set_single_precision(true);
-  const long hits_before = term.hessian_cache_hits();
-  const double moved_error = relative_difference(testing::hessian_vector(term, moved, u), moved_ref.hu);
+  TermEvaluation keeping;
+  keeping.keep_masks = &masks;
+  term.add_forces(moved, f, {}, keeping);
+  const long hits_before = term.reused_masks();
+  const double moved_error =
+      relative_difference(testing::hessian_vector(term, moved, u, single_with_masks), moved_ref.hu);
   EXPECT_LT(moved_error, 1e-5) << what << ", double-precision masks";
   EXPECT_GT(moved_error, 1e-12) << what << ", double-precision masks: is the single-precision HVP running?";
-  EXPECT_EQ(term.hessian_cache_hits(), hits_before + 1) << what;
-  term.set_single_precision(false);
+  EXPECT_EQ(term.reused_masks(), hits_before + 1) << what;
 }
 
 const char* const kModifiers[] = {"none", "potential-shift", "force-switch", "potential-switch"};
@@ -252,8 +267,8 @@ TEST(NeighborList, MatchesBruteForceOverDisplacedConfigurations) {
           q_pruned = q;
         }
         expect_matches_brute_force(term, system, q, what + " step fraction " + std::to_string(fraction));
-        EXPECT_EQ(term.rebuilds(), expected_searches) << what << " after fraction " << fraction;
-        EXPECT_EQ(term.prunes(), expected_prunes) << what << " after fraction " << fraction;
+        EXPECT_EQ(testing::work(term).neighbor_rebuilds, expected_searches) << what << " after fraction " << fraction;
+        EXPECT_EQ(testing::work(term).neighbor_prunes, expected_prunes) << what << " after fraction " << fraction;
       }
       EXPECT_GT(expected_searches, pruned ? 1 : 3) << what;
       if (pruned) {
@@ -415,7 +430,7 @@ TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheBuffer) {
     });
     ASSERT_GT(now_inside, 20);
     expect_matches_brute_force(term, system, target, std::string("pulled pairs, ") + coulomb);
-    EXPECT_EQ(term.rebuilds(), 1);
+    EXPECT_EQ(testing::work(term).neighbor_rebuilds, 1);
   }
 }
 
@@ -448,11 +463,11 @@ TEST(NeighborList, CatchesPairsClosingInFromTheEdgeOfTheSearchedList) {
     if (moved[i] && moved[j] && r < rc) ++now_inside;
   });
   EXPECT_GT(now_inside, 20);
-  EXPECT_EQ(term.rebuilds(), 1);
-  EXPECT_EQ(term.prunes(), 2);
+  EXPECT_EQ(testing::work(term).neighbor_rebuilds, 1);
+  EXPECT_EQ(testing::work(term).neighbor_prunes, 2);
 }
 
-// A variational step (fix_pair_set with a continuous force at the cut-off) visits a step list, cut
+// A variational step (start_step with a continuous force at the cut-off) visits a step list, cut
 // to cut-off + a step skin around the step's start: the same results bit for bit as the regular
 // list (the dropped pairs add exact zeros), over fewer entries; an evaluation beyond half the step
 // skin prunes it again there. Once single-precision positions are kept, the step list is cut on
@@ -462,17 +477,20 @@ TEST(NeighborList, StepListGivesTheRegularResultsBitForBit) {
     auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 41);
     const auto config = testing::pair_config("potential-switch", "reaction-field", 0.0);
     NonbondedPairTerm stepped(system, config), plain(system, config);
-    if (single_cut) {
-      stepped.set_single_precision(true);
-      stepped.set_single_precision(false);
+    if (single_cut) {  // from now on the term keeps single-precision positions
+      TermEvaluation single;
+      single.single_precision = true;
+      testing::evaluate(stepped, q0, single);
     }
     std::mt19937_64 rng(12);
     const Coords u = random_vectors(static_cast<int>(q0.cols()), rng, 1.0);
+    std::unique_ptr<TermStepState> step_state;
+    TermEvaluation in_step;
     auto expect_same = [&](const Coords& q, const std::string& what) {
-      const auto a = testing::evaluate(stepped, q), b = testing::evaluate(plain, q);
+      const auto a = testing::evaluate(stepped, q, in_step), b = testing::evaluate(plain, q);
       EXPECT_EQ(a.energies, b.energies) << what;
       EXPECT_EQ((a.f - b.f).cwiseAbs().maxCoeff(), 0.0) << what;
-      const Coords hu = testing::hessian_vector(stepped, q, u);
+      const Coords hu = testing::hessian_vector(stepped, q, u, in_step);
       EXPECT_EQ((hu - testing::hessian_vector(plain, q, u)).cwiseAbs().maxCoeff(), 0.0) << what;
     };
     expect_same(q0, "start");
@@ -481,33 +499,35 @@ TEST(NeighborList, StepListGivesTheRegularResultsBitForBit) {
     // Evaluations reaching 0.006 nm from each step's start; the first step's skin is half the pruned one's.
     for (int step = 0; step < 3; ++step) {
       const Coords start = q;
-      const long prunes = stepped.prunes();
-      stepped.fix_pair_set(&start);
-      EXPECT_LT(stepped.visited_entries(), regular_entries) << "step " << step;
+      const long prunes = testing::work(stepped).neighbor_prunes;
+      stepped.start_step(start, step_state);
+      in_step.step = step_state.get();
+      EXPECT_LT(stepped.visited_entries(step_state.get()), regular_entries) << "step " << step;
       for (double reach : {0.002, 0.006, 0.004}) {
         q = start + random_vectors(static_cast<int>(q.cols()), rng, reach);
         expect_same(q, "step " + std::to_string(step) + ", reach " + std::to_string(reach));
-        expect_matches_brute_force(stepped, system, q, "step list, step " + std::to_string(step));
+        expect_matches_brute_force(stepped, system, q, "step list, step " + std::to_string(step), nullptr,
+                                   step_state.get());
       }
-      EXPECT_EQ(stepped.prunes(), prunes + 1) << "step " << step << ": one step list, no regular pruning";
-      stepped.fix_pair_set(nullptr);
-      EXPECT_EQ(stepped.visited_entries(), plain.visited_entries()) << "released";
+      EXPECT_EQ(testing::work(stepped).neighbor_prunes, prunes + 1) << "step " << step << ": one step list, no regular pruning";
+      in_step.step = nullptr;
+      EXPECT_EQ(stepped.visited_entries(), plain.visited_entries()) << "outside the step";
     }
     // The last step reached 0.006 nm: this one's skin is 2.6 x 0.006 nm, and an evaluation 0.012 nm
     // away prunes again (still within the pruned list's half skin: no regular pruning).
     const Coords start = q;
-    const long prunes = stepped.prunes();
-    stepped.fix_pair_set(&start);
+    const long prunes = testing::work(stepped).neighbor_prunes;
+    stepped.start_step(start, step_state);
+    in_step.step = step_state.get();
     q = start + random_vectors(static_cast<int>(q.cols()), rng, 0.012);
     expect_same(q, "beyond the step skin");
-    expect_matches_brute_force(stepped, system, q, "beyond the step skin");
-    EXPECT_EQ(stepped.prunes(), prunes + 2);
-    stepped.fix_pair_set(nullptr);
-    EXPECT_EQ(stepped.rebuilds(), 1);
+    expect_matches_brute_force(stepped, system, q, "beyond the step skin", nullptr, step_state.get());
+    EXPECT_EQ(testing::work(stepped).neighbor_prunes, prunes + 2);
+    EXPECT_EQ(testing::work(stepped).neighbor_rebuilds, 1);
   }
 }
 
-// Where the force jumps at the cut-off, fix_pair_set(q) freezes the pairs inside it at q: at moved
+// Where the force jumps at the cut-off, start_step(q) freezes the pairs inside it at q: at moved
 // positions the kernels sum exactly those pairs, each continued past the cut-off.
 TEST(NeighborList, FixedPairSetMatchesBruteForce) {
   auto [system, q] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 43);
@@ -522,10 +542,10 @@ TEST(NeighborList, FixedPairSetMatchesBruteForce) {
     });
     ASSERT_GT(crossed, 10) << modifier;
     testing::evaluate(term, q);
-    term.fix_pair_set(&q);
-    expect_matches_brute_force(term, system, moved, std::string(modifier) + ", pairs fixed at q", &q);
-    term.fix_pair_set(nullptr);
-    expect_matches_brute_force(term, system, moved, std::string(modifier) + ", released");
+    std::unique_ptr<TermStepState> step;
+    term.start_step(q, step);
+    expect_matches_brute_force(term, system, moved, std::string(modifier) + ", pairs fixed at q", &q, step.get());
+    expect_matches_brute_force(term, system, moved, std::string(modifier) + ", outside the step");
   }
 }
 
@@ -551,7 +571,7 @@ TEST(NeighborList, UnwrappedCoordinatesGiveTheSameResult) {
   ASSERT_NEAR(unwrapped_term.search_skin(), 0.35, 1e-12);
   Coords moved = unwrapped + random_vectors(static_cast<int>(q.cols()), rng, 0.13);
   expect_matches_brute_force(unwrapped_term, system, moved, "unwrapped, moved");
-  EXPECT_EQ(unwrapped_term.rebuilds(), 2);
+  EXPECT_EQ(testing::work(unwrapped_term).neighbor_rebuilds, 2);
 }
 
 TEST(NeighborList, SmallPartlyPeriodicAndNonPeriodicBoxes) {

@@ -20,11 +20,16 @@ class Springs : public ForceTerm {
  public:
   explicit Springs(double k) : k_(k) {}
   std::vector<std::string> energy_names() const override { return {"springs"}; }
-  void add_forces(const Coords& q, Coords& f, std::span<double> e) override {
+  void add_forces(const Coords& q, Coords& f, std::span<double> e, const TermEvaluation& = {}) override {
+    add_single_point(q, f, e);
+  }
+  void add_single_point(const Coords& q, Coords& f, std::span<double> e) const override {
     f -= k_ * q;
     if (!e.empty()) e[0] += 0.5 * k_ * q.squaredNorm();
   }
-  void add_hessian_vector(const Coords&, const Coords& u, Coords& out) override { out += k_ * u; }
+  void add_hessian_vector(const Coords&, const Coords& u, Coords& out, const TermEvaluation& = {}) override {
+    out += k_ * u;
+  }
 
  private:
   double k_;

@@ -446,7 +446,11 @@ class RoughWell : public ForceTerm {
  public:
   RoughWell(double slope, double period) : slope_(slope), period_(period) {}
   std::vector<std::string> energy_names() const override { return {"rough"}; }
-  void add_forces(const Coords& q, Coords& f, std::span<double> energies) override {
+  // Stateless: its forces are a single point's.
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& = {}) override {
+    add_single_point(q, f, energies);
+  }
+  void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const override {
     double unwanted[1] = {};  // forces only: the energies are computed and dropped
     if (energies.empty()) energies = unwanted;
     for (int i = 0; i < q.cols(); ++i) {
@@ -456,7 +460,9 @@ class RoughWell : public ForceTerm {
       f(0, i) -= sign * slope_;
     }
   }
-  void add_hessian_vector(const Coords&, const Coords& u, Coords& out) override { out += u; }
+  void add_hessian_vector(const Coords&, const Coords& u, Coords& out, const TermEvaluation& = {}) override {
+    out += u;
+  }
 
  private:
   double slope_, period_;
@@ -539,7 +545,7 @@ struct WaterBoxRun {
 
 // 216 SPC/E waters with plain cut-off Coulomb and shifted LJ: the force jumps at the cut-off, and
 // with this many pairs some stage of some step lands on the jump. Each step fixes its pair set
-// (ForceField::fix_pair_set), so its equations stay smooth and the iteration converges to 1e-12
+// (ForceField::start_step), so its equations stay smooth and the iteration converges to 1e-12
 // nm/ps at every step (before, the residual stalled on the jump and the run stopped).
 TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
   WaterBoxRun box(testing::pair_config("potential-shift", "cutoff"));
@@ -567,7 +573,7 @@ TEST(FixedPairSet, TightSolveThroughCutoffCrossings) {
 
 // Fixing the pair set changes the potential only where the force jumps at the cut-off. Where it is
 // continuous (switched LJ, reaction field with eps_rf = infinity) the true truncated potential is
-// kept: continuing each pair past the cut-off there made vi rk4 on water900 fluctuate 10x more.
+// kept: continuing each pair past the cut-off there would cost energy conservation.
 TEST(FixedPairSet, ContinuesPairsOnlyWhereTheForceJumpsAtTheCutoff) {
   System system;
   Coords q;
@@ -582,10 +588,11 @@ TEST(FixedPairSet, ContinuesPairsOnlyWhereTheForceJumpsAtTheCutoff) {
     Forces free_run, fixed_run;
     field.compute(q, free_run);  // builds the list at q
     field.compute(moved, free_run);
-    {
-      const FixedPairSet pair_set(field, q);
-      field.compute(moved, fixed_run);
-    }
+    StepPairSet pair_set;
+    field.start_step(pair_set, q);
+    Evaluation in_step;
+    in_step.step = &pair_set;
+    field.compute(moved, fixed_run, in_step);
     if (continuous) {
       EXPECT_EQ(fixed_run.potential, free_run.potential) << modifier;
       EXPECT_EQ((fixed_run.f - free_run.f).cwiseAbs().maxCoeff(), 0.0) << modifier;
@@ -632,9 +639,9 @@ TEST(Cost, EvaluationsPerIteration) {
       ViRun run("two_dimers", settings);
       ForceField& ff = run.engine->force_field;
       for (int k = 0; k < 20; ++k) {
-        const long f0 = ff.force_evaluations(), h0 = ff.hessian_evaluations();
+        const long f0 = ff.work().force_evaluations, h0 = ff.work().hessian_evaluations;
         const int it = run.step().iterations;
-        const long forces = ff.force_evaluations() - f0, products = ff.hessian_evaluations() - h0;
+        const long forces = ff.work().force_evaluations - f0, products = ff.work().hessian_evaluations - h0;
         const long per_iteration = am == 0 ? 3 : 7, first = am == 0 ? 1 : 3;
         const bool finished_forward = am != 0 && forces == first + per_iteration * it + 4;
         finished_forward_stops += finished_forward;
@@ -674,12 +681,12 @@ TEST(Predictor, ExtrapolationAndLinearFinishKeepTheSolution) {
     VariationalIntegrator vi(settings);
     Result r{start, 0, 0};
     vi.init(problem, r.state);
-    const long f0 = field.force_evaluations();
+    const long f0 = field.work().force_evaluations;
     for (int k = 0; k < steps; ++k) {
       r.iterations += vi.step(problem, r.state).iterations;
       ++r.state.step;
     }
-    r.forces = field.force_evaluations() - f0;
+    r.forces = field.work().force_evaluations - f0;
     return r;
   };
   const Result exact = run(1, false, 1e-13);
@@ -725,15 +732,15 @@ TEST(MixedPrecisionSolve, KeepsTheSolution) {
       VariationalIntegrator vi(settings);
       Result r{box.start};
       vi.init(problem, r.state);
-      const long p0 = field.hessian_evaluations(), f0 = field.single_precision_force_evaluations(),
-                 h0 = field.single_precision_hessian_evaluations();
+      const long p0 = field.work().hessian_evaluations, f0 = field.work().single_precision_force_evaluations,
+                 h0 = field.work().single_precision_hessian_evaluations;
       for (int k = 0; k < steps; ++k) {
         r.iterations += vi.step(problem, r.state).iterations;
         ++r.state.step;
       }
-      r.products = field.hessian_evaluations() - p0;
-      r.single_forces = field.single_precision_force_evaluations() - f0;
-      r.single_products = field.single_precision_hessian_evaluations() - h0;
+      r.products = field.work().hessian_evaluations - p0;
+      r.single_forces = field.work().single_precision_force_evaluations - f0;
+      r.single_products = field.work().single_precision_hessian_evaluations - h0;
       return r;
     };
     const Result exact = run(false, 1e-13);

@@ -62,7 +62,7 @@ class PySimulation {
   void ensure_forces() {
     if (forces_current_) return;
     Forces forces;
-    model_->force_field->compute(state().q, forces);
+    model_->force_field->single_point(state().q, forces);
     state().f = forces.f;
     state().potential = forces.potential;
     state().energy_terms = forces.terms;
@@ -127,13 +127,7 @@ class PySimulation {
       d["samples"] = observer_->time.size();
     }
     d["wall_seconds"] = totals_.wall_seconds;
-    d["force_evaluations"] = totals_.force_evaluations;
-    d["hessian_evaluations"] = totals_.hessian_evaluations;
-    d["single_precision_force_evaluations"] = totals_.single_precision_force_evaluations;
-    d["single_precision_hessian_evaluations"] = totals_.single_precision_hessian_evaluations;
-    d["neighbor_rebuilds"] = totals_.neighbor_rebuilds;
-    d["neighbor_prunes"] = totals_.neighbor_prunes;
-    d["neighbor_build_seconds"] = totals_.neighbor_build_seconds;
+    WorkCounters::fields([&](const char* name, auto counter) { d[name] = totals_.*counter; });
     d["solver_iterations"] = totals_.solver_iterations;
     return d;
   }

@@ -105,6 +105,21 @@ def test_step_equals_cli_run_bit_for_bit(tmp_path, integrator):
     assert np.array_equal(sim.forces(), f)
 
 
+@pytest.mark.parametrize("observe", ["energy", "forces"])
+@pytest.mark.parametrize("integrator", [dict(type="rattle"), dict(type="vi", method="rk4")])
+def test_observing_the_start_does_not_change_the_run(tmp_path, observe, integrator):
+    # The start is not on the constraint manifold yet: an observation there must not leave its
+    # evaluation (neighbour lists built at those positions) to the run, which starts constrained.
+    config = write_config(tmp_path / "run.toml", WATER, **integrator)
+    plain = vimd.Simulation(config)
+    plain.step(20)
+    observed = vimd.Simulation(config)
+    getattr(observed, observe)()
+    observed.step(20)
+    assert np.array_equal(observed.positions, plain.positions)
+    assert np.array_equal(observed.velocities, plain.velocities)
+
+
 def test_chunked_steps_continue_one_run():
     a = vimd.Simulation(WATER)
     a.step(6)

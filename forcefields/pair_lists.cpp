@@ -1,0 +1,195 @@
+#include "forcefields/pair_lists.hpp"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+#include "forcefields/nonbonded_kernels.hpp"
+
+namespace vimd {
+
+namespace {
+
+double max_abs_coordinate(const Coords& q) {
+  double m = 0;  // a plain loop: Eigen's AVX-512 reduction trips a GCC 12 false-positive warning
+  for (Eigen::Index k = 0; k < q.size(); ++k) m = std::max(m, std::abs(q.data()[k]));
+  return m;
+}
+
+// The step list's skin: twice the largest displacement from its start that the last step's
+// evaluations reached, times a margin for this step reaching further (an evaluation beyond half
+// the skin costs another pruning). Never below kMinStepSkin, far above the rounding of
+// single-precision distances.
+constexpr double kStepReachMargin = 1.3;
+constexpr double kMinStepSkin = 0.005;  // nm
+
+// Lists with fewer entries are narrowed on one thread: starting a team would cost more.
+constexpr std::size_t kParallelEntries = 2048;
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+PairLists::PairLists(const Box& box, double cutoff, double search_skin, double skin,
+                     std::vector<std::vector<int>> exclusions)
+    : skin_(skin), list_(box, cutoff, search_skin, std::move(exclusions)) {}
+
+double PairLists::search(const Coords& q, double allowed) {
+  const long builds = list_.builds();
+  const double moved = list_.update(q, allowed);
+  if (list_.builds() != builds) searched_id_ = ++changes_;
+  return moved;
+}
+
+void PairLists::keep_regular(const Coords& q, double allowed, bool single) {
+  if (!pruning())
+    search(q, allowed);
+  else if (prunes_ == 0 || max_displacement(q, pruned_at_) > allowed)
+    prune(q, search(q, 0.5 * (list_.skin() - skin_)), single);
+}
+
+void PairLists::prune(const Coords& q, double moved_since_search, bool single) {
+  const auto start = std::chrono::steady_clock::now();
+  const double range = list_.cutoff() + skin_;
+  // Since the search no pair came closer by more than twice the largest displacement: an entry
+  // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
+  narrow({list_.entries(), list_.half_start(), searched_id_}, q, range, range + 2 * moved_since_search, single,
+         pruned_);
+  pruned_at_ = q;
+  ++prunes_;
+  prune_seconds_ += seconds_since(start);
+}
+
+void PairLists::narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
+                       PairListEntries& to) {
+  const int n_slots = list_.n_slots();
+  narrow_masks_.resize(from.entries.size());
+  // Single-precision distances are compared with a range widened by a bound on their rounding
+  // (coordinates and shifts below `magnitude`; a few roundings of each difference), so that every
+  // pair truly within the range is kept.
+  const double magnitude = max_abs_coordinate(q) + 2 * list_.box().length.maxCoeff() + range;
+  const double float_range = range + 16 * std::numeric_limits<float>::epsilon() * magnitude;
+  if (single) {
+    for (auto* v : {&x_single_, &y_single_, &z_single_}) v->resize(n_slots);
+  } else {
+    for (auto* v : {&x_, &y_, &z_}) v->resize(n_slots);
+  }
+  PairPositionsOf<double> view{x_.data(), y_.data(), z_.data(), from.entries.data(), from.half_start.data(),
+                               list_.shift_vectors().data(), range * range};
+  PairPositionsOf<float> float_view{x_single_.data(),     y_single_.data(),     z_single_.data(),
+                                    from.entries.data(),  from.half_start.data(), list_.shift_vectors().data(),
+                                    float_range * float_range};
+  const MaskKernel kernel = simd::mask_kernel();
+  const SingleMaskKernel float_kernel = simd::single_mask_kernel();
+  const int n_halves = list_.n_halves();
+  to.half_start.resize(n_halves + 1);
+  to.half_start[0] = 0;
+  std::vector<int> chunk_kept(half_chunks(n_halves) + 1, 0);
+  // Each thread narrows its chunks of halves and counts what each keeps; the chunks are then
+  // copied into place in half order (the result does not depend on the thread count).
+#pragma omp parallel if (from.entries.size() >= kParallelEntries)
+  {
+    if (single)
+      list_.pack_positions(q, x_single_.data(), y_single_.data(), z_single_.data());
+    else
+      list_.pack_positions(q, x_.data(), y_.data(), z_.data());
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+      if (single)
+        float_kernel(float_view, h0, h1, skip_from, narrow_masks_.data());
+      else
+        kernel(view, h0, h1, skip_from, narrow_masks_.data());
+      int kept = 0;
+      for (int e = from.half_start[h0]; e < from.half_start[h1]; ++e) kept += narrow_masks_[e] != 0;
+      chunk_kept[h0 / kHalfChunk + 1] = kept;
+    });
+#pragma omp barrier
+#pragma omp single
+    {
+      std::partial_sum(chunk_kept.begin(), chunk_kept.end(), chunk_kept.begin());
+      to.entries.resize(chunk_kept.back());
+    }
+    for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+      int out = chunk_kept[h0 / kHalfChunk];
+      for (int h = h0; h < h1; ++h) {
+        for (int e = from.half_start[h]; e < from.half_start[h + 1]; ++e)
+          if (narrow_masks_[e] != 0) {
+            to.entries[out] = from.entries[e];
+            to.entries[out++].mask = narrow_masks_[e];
+          }
+        to.half_start[h + 1] = out;
+      }
+    });
+  }
+  to.id = ++changes_;
+}
+
+double PairLists::step_skin_after(double reach) const {
+  if (reach < 0) return 0.5 * skin_;  // no step yet
+  return std::clamp(2 * kStepReachMargin * reach, kMinStepSkin, skin_);
+}
+
+void PairLists::start_step(StepList& step, const Coords& q, bool fixed, bool single) {
+  if (step.build >= 0) step.last_reach = step.reach;
+  step.reach = 0;
+  prune_step(step, q, fixed ? 0 : step_skin_after(step.last_reach), single);
+}
+
+void PairLists::keep_step(StepList& step, const Coords& q, bool single) {
+  if (step.build != list_.builds()) {
+    // A search since the step began renumbered the slots its entries refer to.
+    if (step.skin == 0)
+      throw std::logic_error("PairLists: a fixed pair set outlived the search it was taken from");
+    prune_step(step, q, step.skin, single);
+    return;
+  }
+  if (step.skin == 0) return;  // a fixed pair set needs no new pairs
+  const double moved = max_displacement(q, step.at);
+  step.reach = std::max(step.reach, moved);
+  if (moved > 0.5 * step.skin) prune_step(step, q, step_skin_after(moved), single);
+}
+
+void PairLists::prune_step(StepList& step, const Coords& q, double skin, bool single) {
+  // The regular list must then hold every pair within cut-off + skin at q.
+  keep_regular(q, 0.5 * (skin_ - skin), single);
+  const auto start = std::chrono::steady_clock::now();
+  // The fixed pair set (skin 0) is exactly the pairs inside the cut-off at q: double-precision
+  // distances. A buffered step list may be cut on the cheaper single-precision ones.
+  narrow(regular(), q, list_.cutoff() + skin, INFINITY, skin > 0 && single, step.list);
+  step.at = q;
+  step.skin = skin;
+  step.build = list_.builds();
+  ++step_prunes_;
+  prune_seconds_ += seconds_since(start);
+}
+
+void PairLists::add_work(WorkCounters& counters) const {
+  counters.neighbor_rebuilds += list_.builds();
+  counters.neighbor_prunes += prunes_ + step_prunes_;
+  counters.neighbor_build_seconds += list_.build_seconds() + prune_seconds_;
+}
+
+void PairLists::save(Carried& out) const {
+  if (list_.builds() > 0) out.put("neighbor_list_built_at", list_.built_at());
+  if (prunes_ > 0) out.put("neighbor_list_pruned_at", pruned_at_);
+}
+
+void PairLists::restore(const Carried& in, bool single) {
+  if (!in.has("neighbor_list_built_at")) return;
+  const Coords built_at = in.coords("neighbor_list_built_at");
+  list_.build(built_at);  // the same positions give the same list, hence the same summation order
+  searched_id_ = ++changes_;
+  if (in.has("neighbor_list_pruned_at")) {
+    const Coords pruned_at = in.coords("neighbor_list_pruned_at");
+    if (pruned_at.cols() != built_at.cols()) throw std::invalid_argument("PairLists::restore: wrong number of atoms");
+    prune(pruned_at, max_displacement(pruned_at, built_at), single);
+  }
+}
+
+}  // namespace vimd

@@ -1,0 +1,128 @@
+#pragma once
+// The pair lists the nonbonded pair loop visits.
+//
+// Two lists, as GROMACS's dynamic pruning: the searched list (NeighborList) holds every cluster
+// pair within cut-off + search skin; the loop runs over a pruned copy, its pairs within cut-off +
+// skin, redone by one cheap SIMD pass whenever an atom has moved skin/2 since the last pruning. The
+// search is redone only when an atom has moved (search skin − skin)/2 since it ran, so the pruned
+// range, hence every pair inside the cut-off, is always covered: exact, like a single list.
+//
+// A third, for one variational step (StepList): its evaluations stay within ~h·|v|max of the
+// step's start q̂, so a list pruned at q̂ to cut-off + step skin, a few hundredths of a nm, serves
+// them all, and the single-precision kernels waste fewer lanes on pairs beyond the cut-off. The
+// step skin is twice the largest displacement from q̂ of the last step's evaluations, with a
+// margin; an evaluation beyond half of it prunes again there, so the list stays exact. Where the
+// force jumps at the cut-off, the step list is the fixed pair set (skin 0). The dropped pairs would
+// have added exact zeros: results are bitwise those of the wider list.
+#include <algorithm>
+#include <span>
+#include <vector>
+
+#include "engine/force_field.hpp"
+#include "engine/neighbor_list.hpp"
+
+namespace vimd {
+
+// The pair loop's unit of work: i-halves in chunks of kHalfChunk, dealt to the threads in rounds of
+// nt chunks, back and forth (thread 0 first, then last, in alternate rounds). Early halves (a
+// cluster paired with all later ones) cost more per entry than late ones, so contiguous blocks
+// would leave threads waiting, and a deal always in the same direction would give thread 0 the
+// costlier chunk of every round. It depends only on the thread count, as the summation order must.
+constexpr int kHalfChunk = 16;
+
+inline int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
+
+// f(h0, h1) for the chunks of thread t of nt.
+template <class F>
+void for_thread_chunks(int n_halves, int t, int nt, F&& f) {
+  const int chunks = half_chunks(n_halves);
+  for (int round_start = 0; round_start < chunks; round_start += nt) {
+    const int c = round_start + ((round_start / nt) % 2 == 0 ? t : nt - 1 - t);
+    if (c < chunks) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
+  }
+}
+
+// Cluster-pair entries by i-half: entries[half_start[h] .. half_start[h + 1]), and an id that
+// changes whenever the entries do (masks refer to entry numbers).
+struct PairListView {
+  std::span<const NeighborList::Entry> entries;
+  std::span<const int> half_start;
+  long id = -1;
+};
+
+struct PairListEntries {
+  std::vector<NeighborList::Entry> entries;
+  std::vector<int> half_start;
+  long id = -1;
+  PairListView view() const { return {entries, half_start, id}; }
+};
+
+// A variational step's list (see the top of this file), kept from step to step.
+struct StepList {
+  PairListEntries list;
+  Coords at;               // the step's start
+  double skin = 0;         // nm; 0: the fixed pair set, whose masks alone decide
+  double reach = 0;        // largest displacement from the start of this step's evaluations so far
+  double last_reach = -1;  // the same for the last step (< 0: no step yet)
+  long build = -1;         // the search its entries come from
+};
+
+class PairLists {
+ public:
+  // search_skin ≥ skin; equal: no pruning.
+  PairLists(const Box& box, double cutoff, double search_skin, double skin, std::vector<std::vector<int>> exclusions);
+
+  // Searches or prunes the regular list unless every atom is within `allowed` of where it was
+  // pruned (searched, without pruning), so that it holds every pair within
+  // cut-off + skin − 2·allowed at q. single: prune on single-precision distances (cheaper; the
+  // range is widened by their rounding).
+  void keep_regular(const Coords& q, bool single) { keep_regular(q, 0.5 * skin_, single); }
+  // Starts a step at q: the pairs inside the cut-off at q (fixed), or a buffered step list.
+  void start_step(StepList& step, const Coords& q, bool fixed, bool single);
+  // Keeps a buffered step list valid at q: prunes it again there beyond half its skin.
+  void keep_step(StepList& step, const Coords& q, bool single);
+
+  const NeighborList& searched() const { return list_; }
+  // The regular list: the pruned one, or the searched one without pruning. Its buffer is skin().
+  PairListView regular() const {
+    return pruning() ? pruned_.view() : PairListView{list_.entries(), list_.half_start(), searched_id_};
+  }
+  // Buffers of the pruned and the searched list (equal: no pruning), nm.
+  double skin() const { return skin_; }
+  double search_skin() const { return list_.skin(); }
+
+  void add_work(WorkCounters& counters) const;
+  // Checkpoints: the search's and the pruning's positions (the list's order is the summation order).
+  void save(Carried& out) const;
+  void restore(const Carried& in, bool single);
+
+ private:
+  bool pruning() const { return list_.skin() > skin_; }
+  void keep_regular(const Coords& q, double allowed, bool single);
+  // Searches again unless every atom is within `allowed` of the last search; returns the largest
+  // displacement since the search (0 after a new one).
+  double search(const Coords& q, double allowed);
+  // moved_since_search: the largest displacement from the search's positions to q.
+  void prune(const Coords& q, double moved_since_search, bool single);
+  // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
+  // those pairs, into `to` in half order. Entries whose `nearest` is at least skip_from are dropped
+  // unseen. single: compare single-precision distances (the range is widened by their rounding).
+  void narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
+              PairListEntries& to);
+  // The step list at q with buffer `skin` (0: the pairs inside the cut-off).
+  void prune_step(StepList& step, const Coords& q, double skin, bool single);
+  double step_skin_after(double reach) const;
+
+  double skin_;
+  NeighborList list_;
+  long searched_id_ = -1;
+  PairListEntries pruned_;
+  Coords pruned_at_;
+  long prunes_ = 0, step_prunes_ = 0, changes_ = 0;
+  double prune_seconds_ = 0;
+  std::vector<std::uint32_t> narrow_masks_;  // per entry of the list being narrowed
+  std::vector<double> x_, y_, z_;           // positions packed for a pruning
+  std::vector<float> x_single_, y_single_, z_single_;
+};
+
+}  // namespace vimd
