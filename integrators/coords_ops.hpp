@@ -1,7 +1,9 @@
 #pragma once
-// Per-atom loops shared by the variational integrator's building blocks, with OpenMP.
+// Per-atom (per-column) loops and vector operations shared by the integrators, with OpenMP inside, so
+// that the code using them reads as the mathematics it computes.
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "engine/types.hpp"
 
@@ -10,11 +12,27 @@ namespace vimd {
 // Below this many atoms a loop runs on one thread: starting a team costs more than the work.
 constexpr int kParallelMinAtoms = 256;
 
+// f(i) for i = 0..n−1, in parallel (static partition).
+template <class F>
+void parallel_for(int n, F&& f) {
+#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
+  for (int i = 0; i < n; ++i) f(i);
+}
+
 // f(i) for every atom i, in parallel.
 template <class F>
 void for_each_atom(int n, F&& f) {
-#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) f(i);
+  parallel_for(n, std::forward<F>(f));
+}
+
+// Σ_i term(i) for i = 0..n−1, in parallel. The static partition makes the summation order depend
+// on the thread count alone, so a run repeats bit for bit at the same thread count.
+template <class Term>
+double parallel_sum(int n, Term&& term) {
+  double sum = 0;
+#pragma omp parallel for schedule(static) reduction(+ : sum) if (n >= kParallelMinAtoms)
+  for (int i = 0; i < n; ++i) sum += term(i);
+  return sum;
 }
 
 // dst = expr (any Eigen expression of dst's shape, dst already sized), atoms in parallel. Column-wise
@@ -22,6 +40,12 @@ void for_each_atom(int n, F&& f) {
 template <class Expr>
 void parallel_assign(Coords& dst, const Expr& expr) {
   for_each_atom(static_cast<int>(dst.cols()), [&](int i) { dst.col(i) = expr.col(i); });
+}
+
+// u with atom i's column scaled by s[i] (M v, M⁻¹ p, ...), an expression for parallel_assign.
+template <class Expr>
+auto scaled_per_atom(const Eigen::VectorXd& s, const Expr& u) {
+  return u * s.asDiagonal();
 }
 
 // max_i scale(i)·‖u_i‖_∞, or +∞ when any entry is not finite (so a NaN never passes a test).

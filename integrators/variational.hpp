@@ -1,10 +1,10 @@
 #pragma once
-// The variational integrator converted from one-step methods (Patrick, Cuell, Spiteri, Zhang;
-// spec §4–6). Segments ∂±(w) = P(Q_{τ±}(w)) with τ± = h α±, discrete Lagrangian
-// L_h(w) = S_{τ⁺}(w) − S_{τ⁻}(w), momenta p± from DL_h = −p⁻·D∂⁻ + p⁺·D∂⁺ on T_w TQ.
-// Carried state: w_k = (q_k, v_k) ∈ TQ (the State) and the cotangent point (q̄, p̄) = (∂⁺(w_k), p⁺(w_k)).
-// A step solves ∂⁻(w) = q̄, p⁻(w) = p̄ by the fixed-point iteration with approximate Jacobian
-// (q_τ ≈ q + τv, S_τ ≈ τL); each iteration is one forward and one reverse pass per segment.
+// The variational integrator converted from one-step methods (Patrick, Cuell, Spiteri, Zhang; see
+// docs/variational-integrator.md). Carried state: w_k = (q_k, v_k) ∈ TQ (the State) and the
+// cotangent point (q̄, p̄) = (∂⁺(w_k), p⁺(w_k)). A step solves ∂⁻(w) = q̄, p⁻(w) = p̄ for w
+// (VariationalEquations) by a fixed-point iteration (FixedPointControl, optionally AndersonMixer)
+// from a predicted start (StepPredictor); this class wires them together and decides which
+// evaluations may be single precision.
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,12 +25,11 @@ struct VariationalSettings {
   double tolerance = 1e-8;
   int max_iterations = 50;
   int anderson_depth = 0;  // 0: plain fixed-point iteration; m > 0: Anderson mixing over m differences
-  // Predictor: the standard layer's step Φ_h(w_k) for (q, v) and Π(M·V⁺) for p⁺, each corrected
-  // by its difference between solution and prediction, extrapolated from the last
+  // Predictor (StepPredictor): the standard layer's step Φ_h(w_k) for (q, v) and Π(M·V⁺) for p⁺,
+  // each corrected by its difference between solution and prediction, extrapolated from the last
   // `predictor_history` steps by a polynomial (0: uncorrected, 1: last step's, 2: linear, 3: quadratic;
-  // kAutomaticHistory: what needed the fewest iterations on water900, rk4 at 2 fs: 3 with α⁻ = 0
-  // (2.02 residual evaluations per step against 2.28 with 1), 1 otherwise (4.03 against 5.00 with 3
-  // at [−½, ½]).
+  // kAutomaticHistory: the degree that needed the fewest residual evaluations per step on SPC/E
+  // water, rk4 at 2 fs (validation/bench_vi): 3 with α⁻ = 0, 1 otherwise).
   static constexpr int kAutomaticHistory = -1;
   int predictor_history = kAutomaticHistory;
   int predictor_history_used() const;
@@ -40,7 +39,7 @@ struct VariationalSettings {
   // linear_final_segment its first-order advance) instead of another residual.
   bool predicted_stop = true;
   // With α⁻ = 0, a predicted stop advances the ∂⁺ segment to the updated point to first order
-  // instead of by a forward pass (see advance_plus_segment_linearly).
+  // instead of by a forward pass (VariationalEquations::advance_plus_segment_linearly).
   bool linear_final_segment = true;
   // A mixed-precision solve, where the force field has single-precision pair kernels:
   // - the first iteration evaluates its stages (not a segment's start) and its Hessian–vector
@@ -88,23 +87,19 @@ class VariationalIntegrator : public Integrator {
   void set_cotangent(const Coords& qbar, const Coords& pbar);
 
  private:
-  struct Work;
-  Work& work(Problem& problem, const char* caller);
-  void forward_segments(Work& w, const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr,
-                        bool plus_only = false);
-  void residual(Work& w, const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step);
-  void predict(Work& w, const State& state, long step);
-  // Applies (δq, δv, δp) scaled by `relaxation` (Anderson-mixed unless `plain`) and returns to TQ.
-  void update(Work& w, int iteration, long step, double relaxation, bool plain = false);
-  void advance_plus_segment_linearly(Work& w, long step);
-  void write_state(Work& w, State& state) const;
-  // Pushes the accepted point's offsets (solution minus prediction) into the predictor's history;
-  // with_state: the position and velocity offsets too (not at init, which has no prediction).
-  void record_offsets(Work& w, bool with_state) const;
-  void extrapolate_offsets(Work& w) const;
+  struct Run;
+  Run& bound_run(Problem& problem, const char* caller);
+  // Sets (q, v) to the step's first guess.
+  void predict(Run& run, const State& state, long step);
+  // Evaluates the equations at the iterate (the segments, the residual, the corrections).
+  void evaluate(Run& run, int iteration, long step);
+  // Applies the corrections scaled by `relaxation`, Anderson-mixed if `mix` (and the mixer is on
+  // and the update undamped), and returns to TQ.
+  void update(Run& run, long step, double relaxation, bool mix);
+  void write_state(const Run& run, State& state) const;
 
   VariationalSettings settings_;
-  std::unique_ptr<Work> work_;
+  std::unique_ptr<Run> run_;
 };
 
 }  // namespace vimd
