@@ -65,8 +65,9 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
 }
 
 double skin_fitting_box(const Box& box, double cutoff, double skin) {
+  // The same test as the input check's, so that a skin that fits is kept exactly.
   for (int k = 0; k < 3; ++k)
-    if (box.length[k] > 0) skin = std::min(skin, 0.5 * box.length[k] - cutoff);
+    if (box.length[k] > 0 && box.length[k] < 2 * (cutoff + skin)) skin = 0.5 * box.length[k] - cutoff;
   return std::max(skin, 0.0);
 }
 

@@ -28,7 +28,7 @@ Evaluation ConstrainedDynamics::evaluation(bool single_precision) {
 void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q,
                                    bool segment_start) {
   const int n = n_atoms();
-  const Eigen::VectorXd& w = inverse_mass();
+  const Eigen::VectorXd& inverse_masses = inverse_mass();
   point.q = q;
   point.v = v;
   Evaluation how = evaluation(single_precision_stages_ && !segment_start);
@@ -42,10 +42,10 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   const Coords& f = point.forces.f;
   point.a.resize(3, n);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) point.a.col(i) = w[i] * f.col(i);
+  for (int i = 0; i < n; ++i) point.a.col(i) = inverse_masses[i] * f.col(i);
 
   // S λ = −D²g(v,v) − G M⁻¹ f, A = M⁻¹(f + Gᵀλ)
-  problem_.constraints.constrain_acceleration(q, v, w, point.a, point.lambda, point.s_factor);
+  problem_.constraints.constrain_acceleration(q, v, inverse_masses, point.a, point.lambda, point.s_factor);
   point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
 }
 
@@ -59,14 +59,14 @@ void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coord
 void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
                                   Coords* deferred_hvp) {
   const int n = n_atoms();
-  const Eigen::VectorXd& w = inverse_mass();
+  const Eigen::VectorXd& inverse_masses = inverse_mass();
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) u_tangent_.col(i) = w[i] * a_bar.col(i);
+  for (int i = 0; i < n; ++i) u_tangent_.col(i) = inverse_masses[i] * a_bar.col(i);
 
   const Constraints& c = problem_.constraints;
   if (!c.empty()) {
     // ũ = u − M⁻¹Gᵀz is the M-orthogonal projection of u = M⁻¹ā onto ker G.
-    c.project_onto_kernel(point.s_factor, w, u_tangent_, z_);
+    c.project_onto_kernel(point.s_factor, inverse_masses, u_tangent_, z_);
     coefficients_ = -z_;
   }
   if (deferred_hvp) {

@@ -1,5 +1,6 @@
 #pragma once
-// The constrained vector field in index-1 form and its vector–Jacobian product (spec §1–2):
+// The constrained vector field in index-1 form and its vector–Jacobian product (docs/
+// variational-integrator.md, "Setting" and "The one-step method and its adjoint"):
 //   S(q) = G M⁻¹ Gᵀ,  S λ = −D²g(v,v) − G M⁻¹ f,  A(q,v) = M⁻¹(f + Gᵀλ),  L(q,v) = ½vᵀMv − V(q).
 // Defined off the constraint manifold too, as Runge–Kutta stages need.
 #include "engine/constraints.hpp"

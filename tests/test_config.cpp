@@ -8,6 +8,7 @@
 #include "engine/config.hpp"
 #include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
+#include "integrators/registry.hpp"
 #include "marked_line.hpp"
 
 namespace fs = std::filesystem;
@@ -270,4 +271,11 @@ TEST(ConfigSchema, ReferenceInDocsIsCurrent) {
   std::ifstream in(fs::path(VIMD_SOURCE_DIR) / "docs/run-file.md");
   const std::string docs{std::istreambuf_iterator<char>(in), {}};
   EXPECT_EQ(docs, config_reference_markdown()) << "regenerate it: build/vimd keys --markdown > docs/run-file.md";
+}
+
+// The run file offers exactly the integrators the registry builds.
+TEST(ConfigSchema, IntegratorTypesAreTheRegistrys) {
+  const ConfigKey* type = find_config_key("integrator", "type");
+  ASSERT_NE(type, nullptr);
+  EXPECT_EQ(type->choices, integrator_names());
 }
