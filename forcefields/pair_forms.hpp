@@ -5,6 +5,7 @@
 // defines; docs/adding-a-force-term.md: how to add one; pair_forms-inl.h: their kernels).
 #include <tuple>
 
+#include "engine/errors.hpp"
 #include "forcefields/lennard_jones.hpp"
 #include "forcefields/reaction_field.hpp"
 
@@ -17,12 +18,18 @@ using VdwForms = PairFormList<LjConstants>;
 using CoulombForms = PairFormList<ReactionField>;
 
 // The constants of every listed form (std::get<LjConstants>(forms), ...), built from a configuration.
+// Every value of `coulomb` but "none" belongs to a Coulomb form; one that no form takes is refused.
 template <class Vdw, class Coulomb>
 struct PairFormConstantsOf;
 template <class... V, class... C>
 struct PairFormConstantsOf<PairFormList<V...>, PairFormList<C...>> {
   using type = std::tuple<V..., C...>;
-  static type from_config(const ForceFieldConfig& config) { return type{V::from_config(config)..., C::from_config(config)...}; }
+  static type from_config(const ForceFieldConfig& config) {
+    type forms{V::from_config(config)..., C::from_config(config)...};
+    if (config.coulomb != "none" && !(std::get<C>(forms).present() || ...))
+      throw InputError("[forcefield]", 0, "unknown coulomb '" + config.coulomb + "'");
+    return forms;
+  }
 };
 using PairFormConstants = PairFormConstantsOf<VdwForms, CoulombForms>::type;
 inline PairFormConstants make_pair_form_constants(const ForceFieldConfig& config) {

@@ -41,6 +41,8 @@ ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, 
 }
 
 ReactionField ReactionField::from_config(const ForceFieldConfig& config) {
+  // Another Coulomb form's value: no reaction field (make_pair_form_constants refuses a value no form takes).
+  if (config.coulomb != "reaction-field" && config.coulomb != "cutoff" && config.coulomb != "none") return {};
   return make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
                              config.coulomb_modifier, config.coulomb_switch, config.switch_smoothness);
 }
