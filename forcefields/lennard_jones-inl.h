@@ -1,5 +1,6 @@
 // Lennard-Jones pair kernels (formulas and conventions: lennard_jones.hpp), as templates on the
-// number type: double, or SimdDouble (engine/simd-inl.h). A Highway per-target header: see engine/simd-inl.h.
+// number type: double, or SimdDouble (engine/simd-inl.h), and as a pair form of the pair loop
+// (pair_form-inl.h). A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
 #undef VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
@@ -7,8 +8,11 @@
 #define VIMD_FORCEFIELDS_LENNARD_JONES_INL_H_
 #endif
 
+#include <tuple>
+
 #include "forcefields/lennard_jones.hpp"
 #include "engine/simd-inl.h"
+#include "forcefields/pair_form-inl.h"
 #include "forcefields/switch_function-inl.h"
 
 HWY_BEFORE_NAMESPACE();
@@ -62,6 +66,42 @@ inline void lj_hessian(const LjConstants& k, T c6, T c12, T rinv2, T r, T& a, T&
     apply_switch_hessian(k.sw, rep - dis, r, rinv2 * r, a, b);
   }
 }
+
+// The i atoms' rows of the type tables. Rows whose atom has no LJ with any type (water's hydrogens:
+// 2 of 3 rows) skip the LJ terms: they would add exact zeros.
+template <class Real>
+struct LjHalf {
+  const Real *c6[NeighborList::kHalfSize], *c12[NeighborList::kHalfSize];
+  bool lj[NeighborList::kHalfSize];
+  HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) {
+      c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
+      c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
+      lj[ii] = d.type_has_lj[d.type[ib + ii]] != 0;
+    }
+  }
+  HWY_INLINE bool active(int ii) const { return lj[ii]; }
+};
+
+template <VdwModifier M>
+struct PairForm<LjConstants, M> {
+  using Constants = LjConstants;
+  static constexpr VdwModifier kVariant = M;
+  template <class Real>
+  using Half = LjHalf<Real>;
+  template <class Real>
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                      const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
+    lj_energy_force<M>(std::get<LjConstants>(d.forms), simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), p.rinv2,
+                       p.r2 * p.rinv, v, g);
+  }
+  template <class Real>
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+    lj_hessian<M>(std::get<LjConstants>(d.forms), simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), p.rinv2,
+                  p.r2 * p.rinv, a, b);
+  }
+};
 
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd

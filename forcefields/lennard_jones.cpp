@@ -19,6 +19,7 @@ VdwModifier parse_vdw_modifier(const std::string& name) {
 
 LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_switch, int smoothness) {
   LjConstants k;
+  k.modifier = modifier;
   k.cutoff = cutoff;
   const double rc = cutoff;
   switch (modifier) {
@@ -56,6 +57,13 @@ LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_swit
   }
   return k;
 }
+
+LjConstants LjConstants::from_config(const ForceFieldConfig& config) {
+  return make_lj_constants(parse_vdw_modifier(config.vdw_modifier), config.cutoff, config.vdw_switch,
+                           config.switch_smoothness);
+}
+
+int LjConstants::continuity(double) const { return lj_continuity(modifier, sw.smoothness); }
 
 int lj_continuity(VdwModifier modifier, int smoothness) {
   switch (modifier) {

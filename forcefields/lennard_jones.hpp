@@ -9,8 +9,10 @@
 //   hessian:      a = φ'(r)/r and b = (φ'' − φ'/r)/r², so the pair Hessian block is a I + b d dᵀ.
 // They are branch-free templates on the number type T: double for reference sums, SimdDouble
 // (engine/simd-inl.h) for the pair loop, which evaluates one SIMD vector of j atoms at once.
+#include <array>
 #include <string>
 
+#include "forcefields/pair_form.hpp"
 #include "forcefields/switch_function.hpp"
 
 namespace vimd {
@@ -22,7 +24,20 @@ VdwModifier parse_vdw_modifier(const std::string& name);
 
 // Constants of a modifier, per unit coefficient of the r⁻⁶ and r⁻¹² parts (GROMACS manual,
 // "Modified non-bonded interactions"; forcerec.cpp force_switch_constants / potential_switch_constants).
+// A pair form (pair_form.hpp), always present; its kernels read c6 and c12 of the atoms' types.
 struct LjConstants {
+  static constexpr PairEnergy kEnergy = PairEnergy::vdw;
+  static constexpr std::array kVariants{VdwModifier::none, VdwModifier::potential_shift, VdwModifier::force_switch,
+                                        VdwModifier::potential_switch};
+  static constexpr VdwModifier kUnswitched = VdwModifier::none;
+  static LjConstants from_config(const ForceFieldConfig& config);
+  bool present() const { return true; }
+  VdwModifier variant() const { return modifier; }
+  int continuity(double cutoff) const;
+  bool potential_switched() const { return modifier == VdwModifier::potential_switch; }
+  const SwitchFunction& potential_switch() const { return sw; }
+
+  VdwModifier modifier = VdwModifier::none;
   double cutoff = 0, r_switch = 0;
   // Constant added to r⁻ᵖ: −rc⁻ᵖ for potential-shift, −C_p for force-switch, 0 otherwise.
   double shift6 = 0, shift12 = 0;

@@ -6,9 +6,15 @@
 #define HWY_TARGET_INCLUDE "forcefields/nonbonded_kernels.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 
-#include "forcefields/lennard_jones-inl.h"
+#include <cstddef>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+
 #include "forcefields/nonbonded_kernels.hpp"
-#include "forcefields/reaction_field-inl.h"
+#include "forcefields/pair_form-inl.h"
+#include "forcefields/pair_forms-inl.h"
+#include "forcefields/switch_function-inl.h"
 #include "hwy/highway.h"
 
 HWY_BEFORE_NAMESPACE();
@@ -19,35 +25,276 @@ namespace {
 constexpr int kC = NeighborList::kClusterSize;
 constexpr int kH = NeighborList::kHalfSize;
 
-// The i-half's atoms, loaded once per half.
-template <class Real>
-struct HalfData {
-  Real x[kH], y[kH], z[kH], q[kH];
-  const Real *c6[kH], *c12[kH];
-  // Rows whose atom has no LJ with any type (water's hydrogens: 2 of 3 rows) skip the LJ terms:
-  // they would add exact zeros.
-  bool lj[kH];
+template <class... T>
+struct TypeList {};
+template <class... Lists>
+struct ConcatOf {
+  using type = TypeList<>;
+};
+template <class... A>
+struct ConcatOf<TypeList<A...>> {
+  using type = TypeList<A...>;
+};
+template <class... A, class... B, class... Rest>
+struct ConcatOf<TypeList<A...>, TypeList<B...>, Rest...> {
+  using type = typename ConcatOf<TypeList<A..., B...>, Rest...>::type;
+};
+template <class... Lists>
+using Concat = typename ConcatOf<Lists...>::type;
+
+// Whether Form is the configured variant of its pair form.
+template <class Form>
+bool configured(const PairFormConstants& forms) {
+  const auto& constants = std::get<typename Form::Constants>(forms);
+  return constants.present() && constants.variant() == Form::kVariant;
+}
+int present_forms(const PairFormConstants& forms) {
+  int n = 0;
+  for_each_present_form(forms, [&](const auto&) { ++n; });
+  return n;
+}
+
+// A combination of pair forms is what one kernel evaluates per pair: Half<Real>, the forms'
+// data of an i-half; load(); selected(), whether it is what the configuration asks for;
+// energy_force() (g = −φ'/r of the pair, the forms' energies added to e[PairEnergy]) and
+// hessian() (a and b of the pair).
+
+// The forms each on their own, summed: the first one sets g (or a and b), the others add to it.
+template <class... Form>
+struct Sum {
+  template <class Real>
+  using Half = std::tuple<typename Form::template Half<Real>...>;
+
+  static bool selected(const PairFormConstants& forms) {
+    return (configured<Form>(forms) && ...) && present_forms(forms) == static_cast<int>(sizeof...(Form));
+  }
+
+  template <class Real>
+  static HWY_INLINE void load(const PairViewOf<Real>& d, int ib, Half<Real>& hi) {
+    load_each(d, ib, hi, std::index_sequence_for<Form...>{});
+  }
+
+  template <bool kEnergies, class Real>
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                      const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
+                                      SimdVec<Real>* e) {
+    g = SimdVec<Real>::zero();
+    add_energy_force<0, kEnergies>(d, hi, ii, jb, p, inside, g, e);
+  }
+
+  template <class Real>
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+    a = b = SimdVec<Real>::zero();
+    add_hessian<0>(d, hi, ii, jb, p, a, b);
+  }
+
+ private:
+  template <std::size_t I>
+  using Nth = std::tuple_element_t<I, std::tuple<Form...>>;
+
+  // Not std::apply: a lambda would lack the target's attributes and stay a call.
+  template <class Real, std::size_t... I>
+  static HWY_INLINE void load_each(const PairViewOf<Real>& d, int ib, Half<Real>& hi, std::index_sequence<I...>) {
+    (std::get<I>(hi).load(d, ib), ...);
+  }
+
+  template <std::size_t I, bool kEnergies, class Real>
+  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                          const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
+                                          SimdVec<Real>* e) {
+    if constexpr (I < sizeof...(Form)) {
+      using F = Nth<I>;
+      const auto& half = std::get<I>(hi);
+      if (half.active(ii)) {
+        SimdVec<Real> v;
+        if constexpr (I == 0) {
+          F::energy_force(d, half, ii, jb, p, v, g);
+        } else if constexpr (requires { F::add_energy_force(d, half, ii, jb, p, v, g); }) {
+          F::add_energy_force(d, half, ii, jb, p, v, g);
+        } else {
+          SimdVec<Real> gf;
+          F::energy_force(d, half, ii, jb, p, v, gf);
+          g += gf;
+        }
+        if constexpr (kEnergies) e[static_cast<int>(F::Constants::kEnergy)] += keep(inside, v);
+      }
+      add_energy_force<I + 1, kEnergies>(d, hi, ii, jb, p, inside, g, e);
+    }
+  }
+
+  template <std::size_t I, class Real>
+  static HWY_INLINE void add_hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                     const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+    if constexpr (I < sizeof...(Form)) {
+      using F = Nth<I>;
+      const auto& half = std::get<I>(hi);
+      if (half.active(ii)) {
+        if constexpr (I == 0) {
+          F::hessian(d, half, ii, jb, p, a, b);
+        } else {
+          SimdVec<Real> af, bf;
+          F::hessian(d, half, ii, jb, p, af, bf);
+          a += af;
+          b += bf;
+        }
+      }
+      add_hessian<I + 1>(d, hi, ii, jb, p, a, b);
+    }
+  }
 };
 
-template <class Real>
-HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfData<Real>& hi) {
+// Two forms potential-switched by the same S (same r_switch and smoothness), e.g. LJ and reaction
+// field: S is evaluated once per pair, for both. A and B are the forms' unswitched variants. B
+// must act on every row: the Hessian sums start from it.
+template <class A, class B>
+struct SharedSwitch {
+  static_assert(B::template Half<double>::active(0), "SharedSwitch: B must act on every row");
+  template <class Real>
+  using Half = std::tuple<typename A::template Half<Real>, typename B::template Half<Real>>;
+
+  static bool selected(const PairFormConstants& forms) {
+    const auto& a = std::get<typename A::Constants>(forms);
+    const auto& b = std::get<typename B::Constants>(forms);
+    return a.present() && b.present() && a.potential_switched() && b.potential_switched() &&
+           a.potential_switch().r_switch == b.potential_switch().r_switch &&
+           a.potential_switch().smoothness == b.potential_switch().smoothness && present_forms(forms) == 2;
+  }
+
+  template <class Real>
+  static HWY_INLINE void load(const PairViewOf<Real>& d, int ib, Half<Real>& hi) {
+    std::get<0>(hi).load(d, ib);
+    std::get<1>(hi).load(d, ib);
+  }
+
+  template <bool kEnergies, class Real>
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                      const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
+                                      SimdVec<Real>* e) {
+    using V = SimdVec<Real>;
+    const V r = p.r2 * p.rinv;
+    V v = V::zero();
+    g = V::zero();
+    if (std::get<0>(hi).active(ii)) A::energy_force(d, std::get<0>(hi), ii, jb, p, v, g);
+    V vb, gb, s, ds;
+    B::energy_force(d, std::get<1>(hi), ii, jb, p, vb, gb);
+    switch_value_slope(switch_of(d), r, s, ds);
+    apply_switch_factors(s, ds, p.rinv, v, g);
+    apply_switch_factors(s, ds, p.rinv, vb, gb);
+    if constexpr (kEnergies) {
+      e[static_cast<int>(A::Constants::kEnergy)] += keep(inside, v);
+      e[static_cast<int>(B::Constants::kEnergy)] += keep(inside, vb);
+    }
+    g += gb;
+  }
+
+  // The coefficients of U = U_A + U_B unswitched, then of U·S.
+  template <class Real>
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+    using V = SimdVec<Real>;
+    const V r = p.r2 * p.rinv;
+    V u, unused;
+    B::hessian(d, std::get<1>(hi), ii, jb, p, a, b);
+    B::energy_force(d, std::get<1>(hi), ii, jb, p, u, unused);
+    if (std::get<0>(hi).active(ii)) {
+      V a_a, b_a, u_a;
+      A::hessian(d, std::get<0>(hi), ii, jb, p, a_a, b_a);
+      A::energy_force(d, std::get<0>(hi), ii, jb, p, u_a, unused);
+      a += a_a;
+      b += b_a;
+      u += u_a;
+    }
+    apply_switch_hessian(switch_of(d), u, r, p.rinv, a, b);
+  }
+
+ private:
+  template <class Real>
+  static const SwitchFunction& switch_of(const PairViewOf<Real>& d) {
+    return std::get<typename A::Constants>(d.forms).potential_switch();
+  }
+};
+
+// The kernels compiled: every variant of a vdw form, with every variant of a Coulomb form or
+// alone; and the shared switch of every pair of switchable vdw and Coulomb forms, which comes
+// first: where it applies, it serves instead of the sum of the two switched variants.
+template <class Constants, class = std::make_index_sequence<Constants::kVariants.size()>>
+struct VariantsOf;
+template <class Constants, std::size_t... I>
+struct VariantsOf<Constants, std::index_sequence<I...>> {
+  using type = TypeList<PairForm<Constants, Constants::kVariants[I]>...>;
+};
+template <class List>
+struct SlotOf;
+template <class... Constants>
+struct SlotOf<PairFormList<Constants...>> {
+  using type = Concat<typename VariantsOf<Constants>::type...>;
+};
+
+template <class Vdw, class Coulomb>
+struct WithEach;
+template <class Vdw, class... Coulomb>
+struct WithEach<Vdw, TypeList<Coulomb...>> {
+  using type = TypeList<Sum<Vdw, Coulomb>..., Sum<Vdw>>;
+};
+template <class Vdw, class Coulomb>
+struct SumsOf;
+template <class... Vdw, class Coulomb>
+struct SumsOf<TypeList<Vdw...>, Coulomb> {
+  using type = Concat<typename WithEach<Vdw, Coulomb>::type...>;
+};
+
+template <class Constants>
+concept Switchable = requires { Constants::kUnswitched; };
+template <class Vdw, class Coulomb>
+struct SharedSwitchOf {
+  using type = TypeList<>;
+};
+template <Switchable Vdw, Switchable Coulomb>
+struct SharedSwitchOf<Vdw, Coulomb> {
+  using type = TypeList<SharedSwitch<PairForm<Vdw, Vdw::kUnswitched>, PairForm<Coulomb, Coulomb::kUnswitched>>>;
+};
+template <class Vdw, class CoulombList>
+struct SharedSwitchesWith;
+template <class Vdw, class... Coulomb>
+struct SharedSwitchesWith<Vdw, PairFormList<Coulomb...>> {
+  using type = Concat<typename SharedSwitchOf<Vdw, Coulomb>::type...>;
+};
+template <class VdwList, class CoulombList>
+struct SharedSwitches;
+template <class... Vdw, class CoulombList>
+struct SharedSwitches<PairFormList<Vdw...>, CoulombList> {
+  using type = Concat<typename SharedSwitchesWith<Vdw, CoulombList>::type...>;
+};
+
+using Combinations = Concat<typename SharedSwitches<VdwForms, CoulombForms>::type,
+                            typename SumsOf<typename SlotOf<VdwForms>::type, typename SlotOf<CoulombForms>::type>::type>;
+
+// The i-half's atoms, loaded once per half. Keyed on the forms' data, not on the forms: kernels
+// whose code is the same (LJ none and potential-shift: the shift is a constant) stay one function.
+template <class FormsHalf, class Real>
+struct HalfData {
+  Real x[kH], y[kH], z[kH];
+  FormsHalf forms;
+};
+template <class Forms, class Real>
+using HalfDataOf = HalfData<typename Forms::template Half<Real>, Real>;
+
+template <class Forms, class Real>
+HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Real>& hi) {
   const int ib = h * kH;
   for (int ii = 0; ii < kH; ++ii) {
     hi.x[ii] = d.x[ib + ii];
     hi.y[ii] = d.y[ib + ii];
     hi.z[ii] = d.z[ib + ii];
-    hi.q[ii] = static_cast<Real>(d.rf.prefactor * d.charge[ib + ii]);
-    hi.c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
-    hi.c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
-    hi.lj[ii] = d.type_has_lj[d.type[ib + ii]] != 0;
   }
+  Forms::load(d, ib, hi.forms);
 }
 
-// kSharedSwitch: LJ and Coulomb are switched by the same S (same r_switch and smoothness); the
-// switch is then applied once, to their sum, instead of once for each. Real: the precision of the
-// pair arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
+// Forms: a combination of pair forms (Sum, SharedSwitch). Real: the precision of the pair
+// arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched).
-template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real, bool kEnergies>
+template <class Forms, class Real, bool kEnergies>
 void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
                   double* half_coulomb, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
@@ -59,11 +306,12 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if constexpr (kEnergies) half_lj[h] = half_coulomb[h] = 0;
     if (e0 == e1) continue;
-    HalfData<Real> hi;
-    load_half(d, h, hi);
+    HalfDataOf<Forms, Real> hi;
+    load_half<Forms>(d, h, hi);
     V fxi[kH], fyi[kH], fzi[kH];
     for (int ii = 0; ii < kH; ++ii) fxi[ii] = fyi[ii] = fzi[ii] = zero;
-    V e_lj = zero, e_coulomb = zero;
+    V energy[kPairEnergies];
+    for (V& e : energy) e = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       const Vec3& shift = d.shifts[entry.shift];
@@ -84,36 +332,9 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
           if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
           const V r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
           const V rinv = simd_rsqrt(r2s);
-          const V rinv2 = rinv * rinv;
-          V v, g;
-          if constexpr (kSharedSwitch) {
-            const V r = r2s * rinv;
-            v = g = zero;
-            if (hi.lj[ii])
-              lj_energy_force<VdwModifier::none>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r,
-                                                 v, g);
-            V vc, gc, s, ds;
-            rf_energy_force<CoulombModifier::none>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, gc);
-            switch_value_slope(d.lj.sw, r, s, ds);
-            apply_switch_factors(s, ds, rinv, v, g);
-            apply_switch_factors(s, ds, rinv, vc, gc);
-            if constexpr (kEnergies) {
-              e_lj += keep(inside, v);
-              e_coulomb += keep(inside, vc);
-            }
-            g += gc;
-          } else {
-            g = zero;
-            if (hi.lj[ii]) {
-              lj_energy_force<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, v, g);
-              if constexpr (kEnergies) e_lj += keep(inside, v);
-            }
-            if constexpr (kCoulomb) {
-              V vc;
-              rf_add_energy_force<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, vc, g);
-              if constexpr (kEnergies) e_coulomb += keep(inside, vc);
-            }
-          }
+          const PairDistance<Real> p{r2s, rinv, rinv * rinv};
+          V g;
+          Forms::template energy_force<kEnergies>(d, hi.forms, ii, jb, p, inside, g, energy);
           g = keep(inside, g);
           const V gx = g * dx, gy = g * dy, gz = g * dz;
           fxi[ii] += gx;
@@ -136,15 +357,15 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
       fz[ib + ii] += simd_sum(fzi[ii]);
     }
     if constexpr (kEnergies) {
-      half_lj[h] = simd_sum(e_lj);
-      half_coulomb[h] = simd_sum(e_coulomb);
+      half_lj[h] = simd_sum(energy[static_cast<int>(PairEnergy::vdw)]);
+      half_coulomb[h] = simd_sum(energy[static_cast<int>(PairEnergy::coulomb)]);
     }
   }
 }
 
 // Per pair a u_ij + b (d·u_ij) d, for exactly the pairs the masks select (no cut-off test here).
-// Real: as in force_halves.
-template <VdwModifier M, bool kCoulomb, CoulombModifier C, bool kSharedSwitch, class Real>
+// Forms, Real: as in force_halves.
+template <class Forms, class Real>
 void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, const Real* uz,
                     const std::uint32_t* masks, int h0, int h1, Real* ox, Real* oy, Real* oz) {
   using V = SimdVec<Real>;
@@ -155,8 +376,8 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
-    HalfData<Real> hi;
-    load_half(d, h, hi);
+    HalfDataOf<Forms, Real> hi;
+    load_half<Forms>(d, h, hi);
     const int ib = h * kH;
     Real uxi[kH], uyi[kH], uzi[kH];
     for (int ii = 0; ii < kH; ++ii) {
@@ -185,35 +406,9 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
           const Mask inside = mask_from_bits<Real>(bits);
           const V r2s = select(inside, r2, one);
           const V rinv = simd_rsqrt(r2s);
-          const V rinv2 = rinv * rinv;
+          const PairDistance<Real> p{r2s, rinv, rinv * rinv};
           V a, b;
-          if constexpr (kSharedSwitch) {
-            // The coefficients of U = U_LJ + U_Coulomb unswitched, then of U·S.
-            const V r = r2s * rinv, qq = hi.q[ii] * simd_load(d.charge + jb);
-            V u, unused;
-            rf_hessian<CoulombModifier::none>(d.rf, qq, rinv, r2s, a, b);
-            rf_energy_force<CoulombModifier::none>(d.rf, qq, rinv, r2s, u, unused);
-            if (hi.lj[ii]) {
-              const V c6 = simd_load(hi.c6[ii] + jb), c12 = simd_load(hi.c12[ii] + jb);
-              V a_lj, b_lj, u_lj;
-              lj_hessian<VdwModifier::none>(d.lj, c6, c12, rinv2, r, a_lj, b_lj);
-              lj_energy_force<VdwModifier::none>(d.lj, c6, c12, rinv2, r, u_lj, unused);
-              a += a_lj;
-              b += b_lj;
-              u += u_lj;
-            }
-            apply_switch_hessian(d.lj.sw, u, r, rinv, a, b);
-          } else {
-            a = b = zero;
-            if (hi.lj[ii])
-              lj_hessian<M>(d.lj, simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), rinv2, r2s * rinv, a, b);
-            if constexpr (kCoulomb) {
-              V ac, bc;
-              rf_hessian<C>(d.rf, hi.q[ii] * simd_load(d.charge + jb), rinv, r2s, ac, bc);
-              a += ac;
-              b += bc;
-            }
-          }
+          Forms::hessian(d, hi.forms, ii, jb, p, a, b);
           a = keep(inside, a);
           b = keep(inside, b);
           const V dux = uxi[ii] - uxj, duy = uyi[ii] - uyj, duz = uzi[ii] - uzj;
@@ -279,83 +474,43 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
 template <class Real>
 using ForceKernelOf = void (*)(const PairViewOf<Real>&, int, int, Real*, Real*, Real*, double*, double*,
                                std::uint32_t*);
-
-template <bool kCoulomb, CoulombModifier C, class Real, bool kEnergies>
-ForceKernelOf<Real> force_kernel_of(VdwModifier m) {
-  switch (m) {
-    case VdwModifier::none:
-      return force_halves<VdwModifier::none, kCoulomb, C, false, Real, kEnergies>;
-    case VdwModifier::potential_shift:
-      return force_halves<VdwModifier::potential_shift, kCoulomb, C, false, Real, kEnergies>;
-    case VdwModifier::force_switch:
-      return force_halves<VdwModifier::force_switch, kCoulomb, C, false, Real, kEnergies>;
-    case VdwModifier::potential_switch:
-      return force_halves<VdwModifier::potential_switch, kCoulomb, C, false, Real, kEnergies>;
-  }
-  return nullptr;
-}
-
-template <class Real, bool kEnergies>
-ForceKernelOf<Real> force_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  if (shared_switch)
-    return force_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true, Real, kEnergies>;
-  if (!coulomb) return force_kernel_of<false, CoulombModifier::none, Real, kEnergies>(m);
-  return c == CoulombModifier::potential_switch
-             ? force_kernel_of<true, CoulombModifier::potential_switch, Real, kEnergies>(m)
-             : force_kernel_of<true, CoulombModifier::none, Real, kEnergies>(m);
-}
-
-template <class Real>
-ForceKernelOf<Real> force_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch,
-                                     bool energies) {
-  return energies ? force_kernel_for<Real, true>(m, coulomb, c, shared_switch)
-                  : force_kernel_for<Real, false>(m, coulomb, c, shared_switch);
-}
-
 template <class Real>
 using HessianKernelOf = void (*)(const PairViewOf<Real>&, const Real*, const Real*, const Real*, const std::uint32_t*,
                                  int, int, Real*, Real*, Real*);
 
-template <bool kCoulomb, CoulombModifier C, class Real>
-HessianKernelOf<Real> hessian_kernel_of(VdwModifier m) {
-  switch (m) {
-    case VdwModifier::none:
-      return hessian_halves<VdwModifier::none, kCoulomb, C, false, Real>;
-    case VdwModifier::potential_shift:
-      return hessian_halves<VdwModifier::potential_shift, kCoulomb, C, false, Real>;
-    case VdwModifier::force_switch:
-      return hessian_halves<VdwModifier::force_switch, kCoulomb, C, false, Real>;
-    case VdwModifier::potential_switch:
-      return hessian_halves<VdwModifier::potential_switch, kCoulomb, C, false, Real>;
-  }
-  return nullptr;
+// The kernel of the first selected combination (null if none is).
+template <class Real, bool kEnergies, class... Forms>
+ForceKernelOf<Real> force_kernel_among(const PairFormConstants& forms, TypeList<Forms...>) {
+  ForceKernelOf<Real> kernel = nullptr;
+  (void)((Forms::selected(forms) && (kernel = force_halves<Forms, Real, kEnergies>, true)) || ...);
+  return kernel;
 }
-
 template <class Real>
-HessianKernelOf<Real> hessian_kernel_for(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  if (shared_switch)
-    return hessian_halves<VdwModifier::potential_switch, true, CoulombModifier::potential_switch, true, Real>;
-  if (!coulomb) return hessian_kernel_of<false, CoulombModifier::none, Real>(m);
-  return c == CoulombModifier::potential_switch ? hessian_kernel_of<true, CoulombModifier::potential_switch, Real>(m)
-                                                : hessian_kernel_of<true, CoulombModifier::none, Real>(m);
+ForceKernelOf<Real> force_kernel_for(const PairFormConstants& forms, bool energies) {
+  return energies ? force_kernel_among<Real, true>(forms, Combinations{})
+                  : force_kernel_among<Real, false>(forms, Combinations{});
+}
+template <class Real, class... Forms>
+HessianKernelOf<Real> hessian_kernel_among(const PairFormConstants& forms, TypeList<Forms...>) {
+  HessianKernelOf<Real> kernel = nullptr;
+  (void)((Forms::selected(forms) && (kernel = hessian_halves<Forms, Real>, true)) || ...);
+  return kernel;
 }
 
 }  // namespace
 
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
-// Without Coulomb the Coulomb modifier is irrelevant: one instantiation.
-ForceKernel ForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch, bool energies) {
-  return force_kernel_for<double>(m, coulomb, c, shared_switch, energies);
+ForceKernel ForceKernelFor(const PairFormConstants& forms, bool energies) {
+  return force_kernel_for<double>(forms, energies);
 }
-SingleForceKernel SingleForceKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch,
-                                       bool energies) {
-  return force_kernel_for<float>(m, coulomb, c, shared_switch, energies);
+SingleForceKernel SingleForceKernelFor(const PairFormConstants& forms, bool energies) {
+  return force_kernel_for<float>(forms, energies);
 }
-HessianKernel HessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  return hessian_kernel_for<double>(m, coulomb, c, shared_switch);
+HessianKernel HessianKernelFor(const PairFormConstants& forms) {
+  return hessian_kernel_among<double>(forms, Combinations{});
 }
-SingleHessianKernel SingleHessianKernelFor(VdwModifier m, bool coulomb, CoulombModifier c, bool shared_switch) {
-  return hessian_kernel_for<float>(m, coulomb, c, shared_switch);
+SingleHessianKernel SingleHessianKernelFor(const PairFormConstants& forms) {
+  return hessian_kernel_among<float>(forms, Combinations{});
 }
 MaskKernel MaskKernelFor() { return mask_halves<double>; }
 SingleMaskKernel SingleMaskKernelFor() { return mask_halves<float>; }
@@ -385,33 +540,28 @@ HWY_EXPORT(Lanes);
 namespace simd {
 
 namespace {
-// The dispatch tables return null only for a VdwModifier value outside the enum.
+// Null only for constants no configuration makes (no vdw form, or several forms of a slot).
 template <class Kernel>
 Kernel checked(Kernel kernel) {
-  if (!kernel) throw std::logic_error("unknown VdwModifier");
+  if (!kernel) throw std::logic_error("no pair kernel for this combination of pair forms");
   return kernel;
 }
 }  // namespace
 
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch,
-                         bool energies) {
-  return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
+ForceKernel force_kernel(const PairFormConstants& forms, bool energies) {
+  return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(forms, energies));
 }
 
-SingleForceKernel single_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                      bool shared_switch, bool energies) {
-  return checked(
-      HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch, energies));
+SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies) {
+  return checked(HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(forms, energies));
 }
 
-HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                             bool shared_switch) {
-  return checked(HWY_DYNAMIC_DISPATCH(HessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+HessianKernel hessian_kernel(const PairFormConstants& forms) {
+  return checked(HWY_DYNAMIC_DISPATCH(HessianKernelFor)(forms));
 }
 
-SingleHessianKernel single_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                          bool shared_switch) {
-  return checked(HWY_DYNAMIC_DISPATCH(SingleHessianKernelFor)(modifier, coulomb, coulomb_modifier, shared_switch));
+SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms) {
+  return checked(HWY_DYNAMIC_DISPATCH(SingleHessianKernelFor)(forms));
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }

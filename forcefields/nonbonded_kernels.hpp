@@ -9,8 +9,7 @@
 #include <vector>
 
 #include "engine/neighbor_list.hpp"
-#include "forcefields/lennard_jones.hpp"
-#include "forcefields/reaction_field.hpp"
+#include "forcefields/pair_forms.hpp"
 
 namespace vimd {
 
@@ -25,9 +24,10 @@ struct PairPositionsOf {
   double cutoff2;
 };
 
-// Everything the pair loops read, as plain pointers. Positions, charges and LJ parameters are in
-// slot order; lj_c6[t * n_slots + s] is c6 between type t and the atom in slot s (likewise c12),
-// so a j-cluster's parameters for an i atom are contiguous vector loads.
+// Everything the pair loops read: the atoms' parameters as plain pointers, and the constants of
+// the pair forms. Positions, charges and LJ parameters are in slot order; lj_c6[t * n_slots + s]
+// is c6 between type t and the atom in slot s (likewise c12), so a j-cluster's parameters for an
+// i atom are contiguous vector loads.
 template <class Real>
 struct PairViewOf : PairPositionsOf<Real> {
   const Real* charge;
@@ -35,13 +35,12 @@ struct PairViewOf : PairPositionsOf<Real> {
   const Real *lj_c6, *lj_c12;
   const unsigned char* type_has_lj;  // per type: 1 if its c6 or c12 with some type is not zero
   std::size_t n_slots;
-  LjConstants lj;
-  ReactionField rf;
+  PairFormConstants forms;
 };
 using PairView = PairViewOf<double>;
 
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
-// half_lj[h], half_coulomb[h], so that their total can be summed in an order that does not depend
+// half_lj[h] (PairEnergy::vdw), half_coulomb[h] (PairEnergy::coulomb), so that their total can be summed in an order that does not depend
 // on the thread count (a kernel without energies leaves them untouched). A pair counts if its
 // entry's mask lists it and it is inside the view's cut-off. If inside_masks is not null,
 // inside_masks[e] receives the bits of entry e's pairs that counted.
@@ -71,17 +70,14 @@ using SingleHessianKernel = void (*)(const PairViewOf<float>&, const float* ux, 
 
 namespace simd {
 
-// shared_switch: LJ and Coulomb both potential-switch with the same r_switch and smoothness (then
-// the switch is evaluated once per pair, for their sum). energies: false for forces only.
-ForceKernel force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch,
-                         bool energies);
-SingleForceKernel single_force_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                      bool shared_switch, bool energies);
+// The kernels of the pair forms `forms` configures (their variants, and one switch for the vdw
+// and Coulomb forms where both potential-switch alike). energies: false for forces only.
+ForceKernel force_kernel(const PairFormConstants& forms, bool energies);
+SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies);
 MaskKernel mask_kernel();
 SingleMaskKernel single_mask_kernel();
-HessianKernel hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier, bool shared_switch);
-SingleHessianKernel single_hessian_kernel(VdwModifier modifier, bool coulomb, CoulombModifier coulomb_modifier,
-                                          bool shared_switch);
+HessianKernel hessian_kernel(const PairFormConstants& forms);
+SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms);
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
 std::string target_name();

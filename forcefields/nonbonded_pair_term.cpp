@@ -7,22 +7,35 @@
 #include <limits>
 #include <stdexcept>
 
-#include "forcefields/reaction_field-inl.h"
+#include "forcefields/pair_forms-inl.h"
 
 namespace vimd {
 
 namespace {
 
 // The scalar excluded-pair terms, from the build's static SIMD target.
-using HWY_NAMESPACE::rf_excluded_energy_force;
-using HWY_NAMESPACE::rf_excluded_hessian;
+using HWY_NAMESPACE::excluded_energy_force;
+using HWY_NAMESPACE::excluded_hessian;
 
-// Reaction-field terms of the excluded pairs [p0, p1) (GROMACS keeps k_rf r² − c_rf for them), in
-// double precision from the view's positions, added to force buffers of the view's precision.
-template <class Real>
-double excluded_forces(const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded, double cutoff2, int p0,
-                       int p1, Real* fx, Real* fy, Real* fz) {
-  double e_coulomb = 0;
+template <class Form>
+constexpr bool kHasExcludedPairs = requires { requires Form::kExcludedPairs; };
+template <class Form>
+constexpr bool kHasSelfEnergy = requires(const Form& form) { form.self_energy(1.0); };
+
+// f(constants) for every form present whose excluded pairs interact.
+template <class F>
+void for_each_excluded_pair_form(const PairFormConstants& forms, F&& f) {
+  for_each_present_form(forms, [&](const auto& form) {
+    if constexpr (kHasExcludedPairs<std::remove_cvref_t<decltype(form)>>) f(form);
+  });
+}
+
+// A form's terms of the excluded pairs [p0, p1) (reaction field: GROMACS keeps k_rf r² − c_rf for
+// them), in double precision from the view's positions, added to force buffers of the view's precision.
+template <class Form, class Real>
+double excluded_pair_forces(const Form& form, const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded,
+                            double cutoff2, int p0, int p1, Real* fx, Real* fy, Real* fz) {
+  double energy = 0;
   for (int p = p0; p < p1; ++p) {
     const NeighborList::ExcludedPair& pair = excluded[p];
     const Vec3& shift = d.shifts[pair.shift];
@@ -32,8 +45,8 @@ double excluded_forces(const PairViewOf<Real>& d, const NeighborList::ExcludedPa
     const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= cutoff2) continue;
     double v, g;
-    rf_excluded_energy_force(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j], r2, v, g);
-    e_coulomb += v;
+    excluded_energy_force(form, d, i, j, r2, v, g);
+    energy += v;
     fx[i] += g * dx;
     fy[i] += g * dy;
     fz[i] += g * dz;
@@ -41,13 +54,14 @@ double excluded_forces(const PairViewOf<Real>& d, const NeighborList::ExcludedPa
     fy[j] -= g * dy;
     fz[j] -= g * dz;
   }
-  return e_coulomb;
+  return energy;
 }
 
 // The same for Hessian–vector products, in double precision, added to buffers of the view's precision.
-template <class Real>
-void excluded_hessian(const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded, double cutoff2,
-                      const Real* ux, const Real* uy, const Real* uz, int p0, int p1, Real* ox, Real* oy, Real* oz) {
+template <class Form, class Real>
+void excluded_pair_hessian(const Form& form, const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded,
+                           double cutoff2, const Real* ux, const Real* uy, const Real* uz, int p0, int p1, Real* ox,
+                           Real* oy, Real* oz) {
   for (int p = p0; p < p1; ++p) {
     const NeighborList::ExcludedPair& pair = excluded[p];
     const Vec3& shift = d.shifts[pair.shift];
@@ -57,7 +71,7 @@ void excluded_hessian(const PairViewOf<Real>& d, const NeighborList::ExcludedPai
     const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= cutoff2) continue;
     double a, b;  // b ≠ 0 only where a switch acts
-    rf_excluded_hessian(d.rf, d.rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+    excluded_hessian(form, d, i, j, r2, a, b);
     const double dux = double(ux[i]) - ux[j], duy = double(uy[i]) - uy[j], duz = double(uz[i]) - uz[j];
     const double bp = b * (dx * dux + dy * duy + dz * duz);
     const double hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
@@ -100,13 +114,7 @@ constexpr int kExcludedBlock = 1024;
 NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfig& config)
     : n_atoms_(system.n_atoms()),
       mixed_(config.precision == "mixed"),
-      modifier_(parse_vdw_modifier(config.vdw_modifier)),
-      lj_(make_lj_constants(modifier_, config.cutoff, config.vdw_switch, config.switch_smoothness)),
-      rf_(make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
-                              config.coulomb_modifier, config.coulomb_switch, config.switch_smoothness)),
-      shared_switch_(modifier_ == VdwModifier::potential_switch && rf_.kind == CoulombKind::reaction_field &&
-                     rf_.modifier == CoulombModifier::potential_switch && rf_.sw.r_switch == lj_.sw.r_switch &&
-                     rf_.sw.smoothness == lj_.sw.smoothness),
+      forms_(make_pair_form_constants(config)),
       cutoff2_(config.cutoff * config.cutoff),
       n_types_(static_cast<int>(system.c6.rows())),
       charge_(system.charge),
@@ -120,9 +128,11 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
     throw std::invalid_argument("NonbondedPairTerm: type and charge need one entry per atom");
   for (int t : type_)
     if (t < 0 || t >= n_types_) throw std::invalid_argument("NonbondedPairTerm: atom type index out of range");
-  force_continuous_at_cutoff_ =
-      lj_continuity(modifier_, config.switch_smoothness) >= 1 &&
-      (rf_.kind == CoulombKind::none || coulomb_continuity(rf_, config.cutoff) >= 1);
+  force_continuous_at_cutoff_ = true;
+  for_each_present_form(forms_, [&](const auto& form) {
+    if (form.continuity(config.cutoff) < 1) force_continuous_at_cutoff_ = false;
+  });
+  for_each_excluded_pair_form(forms_, [&](const auto&) { excluded_pairs_ = true; });
   c6_.resize(static_cast<std::size_t>(n_types_) * n_types_);
   c12_.resize(c6_.size());
   for (int a = 0; a < n_types_; ++a)
@@ -136,7 +146,10 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       if (system.c6(a, b) != 0 || system.c12(a, b) != 0) type_has_lj_[a] = 1;
   double sum_q2 = 0;  // a plain loop: Eigen's AVX-512 reduction trips a GCC 12 false-positive warning
   for (double qi : charge_) sum_q2 += qi * qi;
-  if (rf_.kind == CoulombKind::reaction_field) self_energy_ = rf_self_energy(rf_, sum_q2);
+  for_each_present_form(forms_, [&](const auto& form) {
+    if constexpr (kHasSelfEnergy<std::remove_cvref_t<decltype(form)>>)
+      self_energy_[static_cast<int>(form.kEnergy)] += form.self_energy(sum_q2);
+  });
 }
 
 void NonbondedPairTerm::check_atoms(const Coords& q) const {
@@ -189,8 +202,7 @@ PairViewOf<Real> NonbondedPairTerm::pair_view(Workspace& w, const Visit& visit) 
           a.c12.data(),
           type_has_lj_.data(),
           static_cast<std::size_t>(list.n_slots()),
-          lj_,
-          rf_};
+          forms_};
 }
 
 bool NonbondedPairTerm::lists_pair(int a, int b, const TermStepState* step) const {
@@ -309,15 +321,11 @@ void NonbondedPairTerm::add_single_point(const Coords& q, Coords& f, std::span<d
 
 void NonbondedPairTerm::forces(Workspace& w, const Visit& visit, const Coords& q, Coords& f,
                                std::span<double> energies, bool single, TermMasks* keep) const {
-  const bool coulomb = rf_.kind == CoulombKind::reaction_field, with_energies = !energies.empty();
+  const bool with_energies = !energies.empty();
   if (single)
-    add_pair_forces<float>(
-        w, visit, simd::single_force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_, with_energies), q, f,
-        energies, keep);
+    add_pair_forces<float>(w, visit, simd::single_force_kernel(forms_, with_energies), q, f, energies, keep);
   else
-    add_pair_forces<double>(w, visit,
-                            simd::force_kernel(modifier_, coulomb, rf_.modifier, shared_switch_, with_energies), q,
-                            f, energies, keep);
+    add_pair_forces<double>(w, visit, simd::force_kernel(forms_, with_energies), q, f, energies, keep);
 }
 
 template <class Real, class Kernel>
@@ -327,13 +335,18 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
   const PairViewOf<Real> view = pair_view<Real>(w, visit);
   const NeighborList& list = w.lists.searched();
   const NeighborList::ExcludedPair* excluded = list.excluded_pairs().data();
-  const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list.excluded_pairs().size()) : 0;
+  const int n_excluded = excluded_pairs_ ? static_cast<int>(list.excluded_pairs().size()) : 0;
   const int n_halves = list.n_halves();
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
-  w.partial_energies.assign(2 * n_halves + n_blocks, 0.0);
-  double* half_lj = w.partial_energies.data();
-  double* half_coulomb = half_lj + n_halves;
-  double* block_coulomb = half_coulomb + n_halves;
+  // Per PairEnergy k: the energies of the i-halves at half[k], of the excluded-pair blocks at block[k].
+  w.partial_energies.assign(kPairEnergies * (n_halves + n_blocks), 0.0);
+  std::array<double*, kPairEnergies> half, block;
+  for (int k = 0; k < kPairEnergies; ++k) {
+    half[k] = w.partial_energies.data() + k * n_halves;
+    block[k] = w.partial_energies.data() + kPairEnergies * n_halves + k * n_blocks;
+  }
+  double* half_lj = half[static_cast<int>(PairEnergy::vdw)];
+  double* half_coulomb = half[static_cast<int>(PairEnergy::coulomb)];
   std::uint32_t* inside_masks = nullptr;
   if (keep) {
     keep->list_id = visit.list.id;
@@ -349,17 +362,20 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
           pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
         });
         for (int b = t; b < n_blocks; b += nt)
-          block_coulomb[b] = excluded_forces(view, excluded, cutoff2_, b * kExcludedBlock,
-                                             std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
+          for_each_excluded_pair_form(view.forms, [&](const auto& form) {
+            block[static_cast<int>(form.kEnergy)][b] +=
+                excluded_pair_forces(form, view, excluded, cutoff2_, b * kExcludedBlock,
+                                     std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
+          });
       },
       f);
   if (energies.empty()) return;
-  double lj_sum = 0, coulomb_sum = self_energy_;
-  for (int h = 0; h < n_halves; ++h) lj_sum += half_lj[h];
-  for (int h = 0; h < n_halves; ++h) coulomb_sum += half_coulomb[h];
-  for (int b = 0; b < n_blocks; ++b) coulomb_sum += block_coulomb[b];
-  energies[0] += lj_sum;
-  energies[1] += coulomb_sum;
+  for (int k = 0; k < kPairEnergies; ++k) {
+    double sum = self_energy_[k];
+    for (int h = 0; h < n_halves; ++h) sum += half[k][h];
+    for (int b = 0; b < n_blocks; ++b) sum += block[k][b];
+    energies[k] += sum;
+  }
 }
 
 void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how) {
@@ -367,14 +383,10 @@ void NonbondedPairTerm::add_hessian_vector(const Coords& q, const Coords& u, Coo
   Step* step = step_of(how.step);
   keep_lists(run_, q, step);
   const Visit v = visit(run_, step);
-  const bool coulomb = rf_.kind == CoulombKind::reaction_field;
   if (how.single_precision)
-    add_pair_hessian_vector<float>(run_, v,
-                                   simd::single_hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_), q,
-                                   u, out, how.masks);
+    add_pair_hessian_vector<float>(run_, v, simd::single_hessian_kernel(forms_), q, u, out, how.masks);
   else
-    add_pair_hessian_vector<double>(run_, v, simd::hessian_kernel(modifier_, coulomb, rf_.modifier, shared_switch_),
-                                    q, u, out, how.masks);
+    add_pair_hessian_vector<double>(run_, v, simd::hessian_kernel(forms_), q, u, out, how.masks);
 }
 
 template <class Real, class Kernel>
@@ -386,7 +398,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
   const PairViewOf<Real> view = pair_view<Real>(w, visit);
   const NeighborList& list = w.lists.searched();
   const NeighborList::ExcludedPair* excluded = list.excluded_pairs().data();
-  const int n_excluded = rf_.kind == CoulombKind::reaction_field ? static_cast<int>(list.excluded_pairs().size()) : 0;
+  const int n_excluded = excluded_pairs_ ? static_cast<int>(list.excluded_pairs().size()) : 0;
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;
   // The kernel takes the masks as the interacting pairs (it has no cut-off test of its own): a
   // force pass's at these positions on this list (a single-precision product also takes a
@@ -422,8 +434,10 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
           pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });
         for (int b = t; b < n_blocks; b += nt)
-          excluded_hessian(view, excluded, cutoff2_, slots.ux.data(), slots.uy.data(), slots.uz.data(),
-                           b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
+          for_each_excluded_pair_form(view.forms, [&](const auto& form) {
+            excluded_pair_hessian(form, view, excluded, cutoff2_, slots.ux.data(), slots.uy.data(), slots.uz.data(),
+                                  b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
+          });
       },
       out);
 }

@@ -1,10 +1,10 @@
 #pragma once
 // The nonbonded pair term: one OpenMP pair loop over the pair lists (pair_lists.hpp), evaluating
-// the Lennard-Jones kernel (lennard_jones.hpp) and the reaction-field Coulomb kernel
-// (reaction_field.hpp) with the SIMD kernels of the CPU's best target (nonbonded_kernels.hpp) for
-// every listed pair inside the cut-off; reports energies {"lj", "coulomb"}.
-//   V = Σ_{i<j, not excluded, r<rc} [V_LJ(r) + V_RF(r)] + Σ_{excluded, r<rc} V_RF,excl(r) + Σ_i V_RF,self
-//   (V_RF and V_RF,excl times the switch S(r − coulomb_switch) with coulomb_modifier = potential-switch)
+// the pair forms of pair_forms.hpp (Lennard-Jones, reaction-field Coulomb) with the SIMD kernels
+// of the CPU's best target (nonbonded_kernels.hpp) for every listed pair inside the cut-off;
+// reports energies {"lj", "coulomb"} (each form's PairEnergy).
+//   V = Σ_{i<j, not excluded, r<rc} Σ_forms φ(r) + Σ_{excluded, r<rc} Σ_forms φ_excl(r) + Σ_forms V_self
+//   (reaction field has the excluded-pair and self terms: reaction_field.hpp)
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
 // Threads: each thread takes its chunks of i-halves (for_thread_chunks) and accumulates into its
@@ -16,8 +16,10 @@
 // inside the cut-off; a Hessian–vector product handed them (TermEvaluation::masks) takes them
 // instead of finding those pairs by a mask pass of its own, with the same results (a
 // single-precision product also takes a double-precision pass's masks).
+#include <array>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -56,9 +58,11 @@ class NonbondedPairTerm : public ForceTerm {
   std::size_t visited_entries(const TermStepState* step = nullptr) const;
   // Hessian–vector products that took a force pass's masks.
   long reused_masks() const { return run_.reused_masks; }
-  VdwModifier vdw_modifier() const { return modifier_; }
-  const LjConstants& lj_constants() const { return lj_; }
-  const ReactionField& reaction_field() const { return rf_; }
+  // The constants of a pair form (e.g. form<LjConstants>()).
+  template <class Form>
+  const Form& form() const {
+    return std::get<Form>(forms_);
+  }
 
  private:
   // A variational step's pair set.
@@ -135,12 +139,10 @@ class NonbondedPairTerm : public ForceTerm {
 
   int n_atoms_;
   bool mixed_;  // precision = "mixed": forces from the single-precision kernel
-  VdwModifier modifier_;
-  LjConstants lj_;
-  ReactionField rf_;
-  bool shared_switch_;  // LJ and Coulomb switched by the same S: the kernels switch their sum once
+  PairFormConstants forms_;
+  bool excluded_pairs_ = false;  // some form has an excluded-pair term
   double cutoff2_;
-  double self_energy_ = 0;
+  std::array<double, kPairEnergies> self_energy_{};  // per PairEnergy
   int n_types_;
   std::vector<double> c6_, c12_;  // [ti * n_types + tj]
   std::vector<unsigned char> type_has_lj_;  // per type: some c6 or c12 of its row is not zero

@@ -1,5 +1,6 @@
 // Reaction-field pair kernels (formulas and conventions: reaction_field.hpp), as templates on the
-// number type: double, or SimdDouble (engine/simd-inl.h). A Highway per-target header: see engine/simd-inl.h.
+// number type: double, or SimdDouble (engine/simd-inl.h), and as a pair form of the pair loop
+// (pair_form-inl.h). A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_
 #undef VIMD_FORCEFIELDS_REACTION_FIELD_INL_H_
@@ -8,9 +9,11 @@
 #endif
 
 #include <cmath>
+#include <tuple>
 
 #include "forcefields/reaction_field.hpp"
 #include "engine/simd-inl.h"
+#include "forcefields/pair_form-inl.h"
 #include "forcefields/switch_function-inl.h"
 
 HWY_BEFORE_NAMESPACE();
@@ -76,6 +79,52 @@ inline void rf_excluded_hessian(const ReactionField& rf, double qq, double r2, d
     apply_switch_hessian(rf.sw, qq * (rf.k_rf * r2 - rf.c_rf), r, 1 / r, a, b);
   }
 }
+
+// The excluded-pair terms of slots i and j at distance² r2 < cutoff², as the pair loop calls them.
+template <class Real>
+inline void excluded_energy_force(const ReactionField& rf, const PairViewOf<Real>& d, int i, int j, double r2,
+                                  double& v, double& g) {
+  rf_excluded_energy_force(rf, rf.prefactor * d.charge[i] * d.charge[j], r2, v, g);
+}
+template <class Real>
+inline void excluded_hessian(const ReactionField& rf, const PairViewOf<Real>& d, int i, int j, double r2, double& a,
+                             double& b) {
+  rf_excluded_hessian(rf, rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+}
+
+// The i atoms' charges, times f/eps_r.
+template <class Real>
+struct ReactionFieldHalf {
+  Real q[NeighborList::kHalfSize];
+  HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
+    const ReactionField& rf = std::get<ReactionField>(d.forms);
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) q[ii] = static_cast<Real>(rf.prefactor * d.charge[ib + ii]);
+  }
+  static constexpr bool active(int) { return true; }
+};
+
+template <CoulombModifier C>
+struct PairForm<ReactionField, C> {
+  using Constants = ReactionField;
+  static constexpr CoulombModifier kVariant = C;
+  template <class Real>
+  using Half = ReactionFieldHalf<Real>;
+  template <class Real>
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                      const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
+    rf_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, v, g);
+  }
+  template <class Real>
+  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                          const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
+    rf_add_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, v, g);
+  }
+  template <class Real>
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+    rf_hessian<C>(std::get<ReactionField>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, a, b);
+  }
+};
 
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd

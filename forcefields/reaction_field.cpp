@@ -40,6 +40,13 @@ ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, 
   return rf;
 }
 
+ReactionField ReactionField::from_config(const ForceFieldConfig& config) {
+  // Another Coulomb form's value: no reaction field (make_pair_form_constants refuses a value no form takes).
+  if (config.coulomb != "reaction-field" && config.coulomb != "cutoff" && config.coulomb != "none") return {};
+  return make_reaction_field(config.coulomb, config.epsilon_r, config.epsilon_rf, config.cutoff,
+                             config.coulomb_modifier, config.coulomb_switch, config.switch_smoothness);
+}
+
 int coulomb_continuity(const ReactionField& rf, double cutoff) {
   if (rf.modifier == CoulombModifier::potential_switch) return rf.sw.smoothness;
   return std::abs(2 * rf.k_rf * cutoff * cutoff * cutoff - 1) < 1e-12 ? 1 : 0;

@@ -23,8 +23,10 @@
 //
 // The kernels (reaction_field-inl.h) use the same convention as lennard_jones.hpp:
 // g = −φ'/r, a = φ'/r, b = (φ'' − φ'/r)/r²; qq already includes f/eps_r.
+#include <array>
 #include <string>
 
+#include "forcefields/pair_form.hpp"
 #include "forcefields/switch_function.hpp"
 
 namespace vimd {
@@ -32,7 +34,20 @@ namespace vimd {
 enum class CoulombKind { none, reaction_field };
 enum class CoulombModifier { none, potential_switch };
 
+// A pair form (pair_form.hpp), present unless coulomb = "none"; its kernels read the atoms' charges.
 struct ReactionField {
+  static constexpr PairEnergy kEnergy = PairEnergy::coulomb;
+  static constexpr std::array kVariants{CoulombModifier::none, CoulombModifier::potential_switch};
+  static constexpr CoulombModifier kUnswitched = CoulombModifier::none;
+  static constexpr bool kExcludedPairs = true;
+  static ReactionField from_config(const ForceFieldConfig& config);
+  bool present() const { return kind == CoulombKind::reaction_field; }
+  CoulombModifier variant() const { return modifier; }
+  int continuity(double cutoff) const;
+  double self_energy(double sum_q2) const;
+  bool potential_switched() const { return modifier == CoulombModifier::potential_switch; }
+  const SwitchFunction& potential_switch() const { return sw; }
+
   CoulombKind kind = CoulombKind::none;
   CoulombModifier modifier = CoulombModifier::none;
   double prefactor = 0;  // f / eps_r, kJ/mol nm e⁻²
@@ -53,5 +68,8 @@ int coulomb_continuity(const ReactionField& rf, double cutoff);
 
 // −½ (f/eps_r) c_rf Σ qi²: a constant energy, no force.
 inline double rf_self_energy(const ReactionField& rf, double sum_q2) { return -0.5 * rf.prefactor * rf.c_rf * sum_q2; }
+
+inline int ReactionField::continuity(double cutoff) const { return coulomb_continuity(*this, cutoff); }
+inline double ReactionField::self_energy(double sum_q2) const { return rf_self_energy(*this, sum_q2); }
 
 }  // namespace vimd

@@ -39,8 +39,8 @@ struct Reference {
 template <VdwModifier M>
 Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u,
                       const Coords* pairs_at = nullptr) {
-  const LjConstants& lj = term.lj_constants();
-  const ReactionField& rf = term.reaction_field();
+  const LjConstants& lj = term.form<LjConstants>();
+  const ReactionField& rf = term.form<ReactionField>();
   const double rc2 = lj.cutoff * lj.cutoff;
   const bool coulomb = rf.kind == CoulombKind::reaction_field;
   Reference ref;
@@ -103,7 +103,7 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
 
 Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coords& q, const Coords& u,
                       const Coords* pairs_at = nullptr) {
-  switch (term.vdw_modifier()) {
+  switch (term.form<LjConstants>().modifier) {
     case VdwModifier::none:
       return brute_force<VdwModifier::none>(term, s, q, u, pairs_at);
     case VdwModifier::potential_shift:
@@ -536,7 +536,7 @@ TEST(NeighborList, FixedPairSetMatchesBruteForce) {
     std::mt19937_64 rng(13);
     const Coords moved = q + random_vectors(static_cast<int>(q.cols()), rng, 0.02);
     int crossed = 0;
-    const double rc = term.lj_constants().cutoff;
+    const double rc = term.form<LjConstants>().cutoff;
     testing::for_each_pair_distance(system, q, [&](int i, int j, double r) {
       crossed += (r < rc) != ((system.box.minimum_image(moved.col(i) - moved.col(j)).norm()) < rc);
     });
