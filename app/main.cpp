@@ -19,10 +19,9 @@
 #include "engine/observers.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
-#include "forcefields/lennard_jones.hpp"
 #include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
-#include "forcefields/reaction_field.hpp"
+#include "forcefields/pair_forms.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
@@ -181,34 +180,13 @@ int energy_command(const fs::path& config_file, bool json) {
 // How smooth the pair interactions are across the cut-off (and switch): a jump in the n-th
 // derivative limits the order a variational integrator reaches when pairs cross it.
 std::string describe_smoothness(const ForceFieldConfig& ff) {
-  auto c_n = [](int n) { return n < 0 ? std::string("discontinuous") : "C^" + std::to_string(n); };
-  char buf[160];
-  const VdwModifier vdw = parse_vdw_modifier(ff.vdw_modifier);
-  std::string lj = "LJ " + c_n(lj_continuity(vdw, ff.switch_smoothness));
-  if (vdw == VdwModifier::none) lj += " (the energy jumps at the cut-off)";
-  if (vdw == VdwModifier::potential_shift) lj += " (the force jumps at the cut-off)";
-  if (vdw == VdwModifier::force_switch) {
-    std::snprintf(buf, sizeof buf, " (force-switch %g-%g nm)", ff.vdw_switch, ff.cutoff);
-    lj += buf;
-  }
-  if (vdw == VdwModifier::potential_switch) {
-    std::snprintf(buf, sizeof buf, " (potential-switch %g-%g nm, switch_smoothness %d)", ff.vdw_switch, ff.cutoff,
-                  ff.switch_smoothness);
-    lj += buf;
-  }
-  const ReactionField rf = make_reaction_field(ff.coulomb, ff.epsilon_r, ff.epsilon_rf, ff.cutoff, ff.coulomb_modifier,
-                                               ff.coulomb_switch, ff.switch_smoothness);
-  if (rf.kind == CoulombKind::none) return lj + "; no Coulomb";
-  const int n = coulomb_continuity(rf, ff.cutoff);
-  std::string coulomb = "; Coulomb " + c_n(n);
-  if (rf.modifier == CoulombModifier::potential_switch) {
-    std::snprintf(buf, sizeof buf, " (potential-switch %g-%g nm, switch_smoothness %d; C^%d at the cut-off)",
-                  ff.coulomb_switch, ff.cutoff, n, n + 1);
-    coulomb += buf;
-  } else {
-    coulomb += n == 0 ? " (the force jumps at the cut-off)" : " (eps_rf = inf: the force's slope jumps at the cut-off)";
-  }
-  return lj + coulomb;
+  std::string text;
+  bool coulomb = false;
+  for_each_present_form(make_pair_form_constants(ff), [&](const auto& form) {
+    text += (text.empty() ? "" : "; ") + form.describe(ff.cutoff);
+    coulomb = coulomb || form.kEnergy == PairEnergy::coulomb;
+  });
+  return coulomb ? text : text + "; no Coulomb";
 }
 
 // The pair list as the run will use it (the search skin may be automatic).

@@ -348,7 +348,7 @@ class ConfigReader {
     if (ff.coulomb_modifier == "potential-switch") {
       const toml::node& modifier = *node("forcefield", "coulomb_modifier");
       require(ff.coulomb != "none", modifier,
-              "coulomb_modifier = \"potential-switch\" needs coulomb = \"reaction-field\" or \"cutoff\"");
+              "coulomb_modifier = \"potential-switch\" needs coulomb = \"reaction-field\", \"cutoff\" or \"pme\"");
       const toml::node* start = node("forcefield", "coulomb_switch");
       require(start != nullptr, modifier,
               "coulomb_modifier = \"potential-switch\" needs coulomb_switch (nm, where the switch starts)");

@@ -16,12 +16,17 @@ struct ForceFieldConfig {
   double cutoff = 0.9;                          // nm, rvdw = rcoulomb
   std::string vdw_modifier = "potential-shift"; // "none" | "potential-shift" | "force-switch" | "potential-switch"
   double vdw_switch = 0.0;                      // nm, start of the switch region
-  std::string coulomb = "reaction-field";       // "reaction-field" | "cutoff" | "none"
-  std::string coulomb_modifier = "none";        // "none" | "potential-switch"
+  std::string coulomb = "reaction-field";       // "reaction-field" | "cutoff" | "pme" | "none"
+  std::string coulomb_modifier = "potential-shift";  // "none" | "potential-shift" | "potential-switch"
   double coulomb_switch = 0.0;                  // nm, start of the Coulomb switch region
   int switch_smoothness = 2;                    // k: potential-switch pair potentials are C^k (2 = GROMACS)
   double epsilon_r = 1.0;
   double epsilon_rf = 0.0;                      // 0 means infinity
+  // PME (coulomb = "pme"), as GROMACS's mdp options of the same names.
+  double ewald_rtol = 1e-5;              // erfc(β r) at the cut-off (or at coulomb_switch when switched)
+  int pme_order = 4;                     // B-spline interpolation order
+  double fourier_spacing = 0.12;         // nm, largest grid spacing when fourier_n gives no size
+  std::array<int, 3> fourier_n = {0, 0, 0};  // fourier_nx, _ny, _nz; 0: from fourier_spacing
   double neighbor_skin = 0.1;                   // nm, buffer of the pair list the kernels run over
   std::optional<double> neighbor_search_skin;   // nm, buffer of the searched list it is pruned from; unset: automatic
   std::string precision = "double";             // "double" | "mixed" (pair forces in single precision)

@@ -140,11 +140,12 @@ std::vector<ConfigKey> make_keys() {
       "forcefield", "vdw_switch", "number, nm", kMustMatch, "start of the LJ switch (force-switch, potential-switch)",
       [](double v) { return v >= 0; }, "vdw_switch must not be negative (nm)"));
   k.push_back(choice_key<&RunConfig::forcefield, &ForceFieldConfig::coulomb>(
-      "forcefield", "coulomb", {"reaction-field", "cutoff", "none"}, kMustMatch,
-      "electrostatics: reaction field (epsilon_rf), plain cut-off, or none"));
+      "forcefield", "coulomb", {"reaction-field", "cutoff", "pme", "none"}, kMustMatch,
+      "electrostatics: reaction field (epsilon_rf), plain cut-off, smooth particle-mesh Ewald, or none"));
   k.push_back(choice_key<&RunConfig::forcefield, &ForceFieldConfig::coulomb_modifier>(
-      "forcefield", "coulomb_modifier", {"none", "potential-switch"}, kMustMatch,
-      "potential-switch multiplies Coulomb by the switch (not a GROMACS option)"));
+      "forcefield", "coulomb_modifier", {"none", "potential-shift", "potential-switch"}, kMustMatch,
+      "as GROMACS's; reaction field is shifted either way; potential-switch multiplies Coulomb (PME: its real "
+      "space) by the switch (not a GROMACS option)"));
   k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::coulomb_switch>(
       "forcefield", "coulomb_switch", "number, nm", kMustMatch,
       "start of the Coulomb switch (required with coulomb_modifier = \"potential-switch\")",
@@ -170,6 +171,32 @@ std::vector<ConfigKey> make_keys() {
   k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::epsilon_rf>(
       "forcefield", "epsilon_rf", "number", kMustMatch, "reaction-field dielectric constant; 0 means infinity",
       [](double v) { return v >= 0; }, "epsilon_rf must not be negative (0 means infinity)"));
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::ewald_rtol>(
+      "forcefield", "ewald_rtol", "number", kMustMatch,
+      "PME: erfc(beta r) at the cut-off, or at coulomb_switch when the real space is switched",
+      [](double v) { return v > 0 && v < 0.1; }, "ewald_rtol must be between 0 and 0.1 (exclusive)"));
+  k.push_back(integer_key<&RunConfig::forcefield, &ForceFieldConfig::pme_order>(
+      "forcefield", "pme_order", "integer, 4-12", kMustMatch, "PME: B-spline interpolation order (GROMACS's pme-order)",
+      [](long v) { return v >= 4 && v <= 12; }, "pme_order must be between 4 and 12"));
+  k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::fourier_spacing>(
+      "forcefield", "fourier_spacing", "number, nm", kMustMatch,
+      "PME: largest grid spacing; the grid sizes follow as GROMACS chooses them", [](double v) { return v > 0; },
+      "fourier_spacing must be positive (nm)"));
+  for (int d = 0; d < 3; ++d) {
+    const std::string name = std::string("fourier_n") + "xyz"[d];
+    k.push_back({"forcefield",
+                 name,
+                 "integer",
+                 {},
+                 kMustMatch,
+                 std::string("PME: grid points along ") + "xyz"[d] + " (unset or 0: from fourier_spacing)",
+                 [d, name](const KeyInput& in, RunConfig& c) {
+                   const long n = in.integer();
+                   in.require(n >= 0 && n <= 4096, name + " must be between 0 and 4096");
+                   c.forcefield.fourier_n[d] = static_cast<int>(n);
+                 },
+                 [d](const RunConfig& c) { return integer_text(c.forcefield.fourier_n[d]); }});
+  }
   k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::neighbor_skin>(
       "forcefield", "neighbor_skin", "number, nm", kMustMatch,
       "buffer of the pair list the kernels run over; re-pruned when an atom moved half of it",

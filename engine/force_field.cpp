@@ -1,12 +1,23 @@
 #include "engine/force_field.hpp"
 
+#include <algorithm>
 #include <limits>
+#include <stdexcept>
 
 namespace vimd {
 
 void ForceField::add(std::unique_ptr<ForceTerm> term) {
   auto names = term->energy_names();
+  const auto part_of = term->energy_part_of();
+  for (std::size_t k = 0; k < part_of.size(); ++k) {
+    if (part_of[k].empty()) continue;
+    const auto total = std::find(names_.begin(), names_.end(), part_of[k]);
+    if (total == names_.end())
+      throw std::logic_error("energy '" + names[k] + "' is a part of '" + part_of[k] + "', which no earlier term reports");
+    parts_.push_back({names_.size() + k, static_cast<std::size_t>(total - names_.begin())});
+  }
   name_counts_.push_back(names.size());
+  for (std::size_t k = 0; k < names.size(); ++k) is_part_.push_back(k < part_of.size() && !part_of[k].empty());
   names_.insert(names_.end(), names.begin(), names.end());
   terms_.push_back(std::move(term));
 }
@@ -39,8 +50,7 @@ void ForceField::evaluate(const Coords& q, Forces& out, bool energies, const Eva
                           for_term(k, how, keep));
     offset += n;
   }
-  out.potential = 0;
-  for (double e : out.terms) out.potential += e;
+  total_energies(out);
   ++evaluations_.force_evaluations;
   if (how.single_precision && has_single_precision()) ++evaluations_.single_precision_force_evaluations;
 }
@@ -60,8 +70,14 @@ void ForceField::single_point(const Coords& q, Forces& out) const {
     terms_[k]->add_single_point(q, out.f, std::span<double>(out.terms).subspan(offset, name_counts_[k]));
     offset += name_counts_[k];
   }
+  total_energies(out);
+}
+
+void ForceField::total_energies(Forces& out) const {
+  for (const EnergyPart& p : parts_) out.terms[p.total] += out.terms[p.part];
   out.potential = 0;
-  for (double e : out.terms) out.potential += e;
+  for (std::size_t k = 0; k < out.terms.size(); ++k)
+    if (!is_part_[k]) out.potential += out.terms[k];
 }
 
 void ForceField::start_step(StepPairSet& pairs, const Coords& q) {

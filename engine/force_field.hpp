@@ -114,6 +114,10 @@ class ForceTerm {
   virtual ~ForceTerm() = default;
   // Names of the energies this term reports, e.g. {"lj", "coulomb"} for the nonbonded pair term.
   virtual std::vector<std::string> energy_names() const = 0;
+  // For each of energy_names(), the column of an earlier term that also counts it, or "" (most):
+  // the PME mesh's "coulomb_recip" is a part of "coulomb", as GROMACS's Coul. recip. is of the
+  // Coulomb energy. A part is reported on its own and enters the potential only through its total.
+  virtual std::vector<std::string> energy_part_of() const { return {}; }
   // Adds −∇V to f and the energies to energies[0..energy_names().size()); an empty `energies`
   // asks for the forces only (a term may then skip the energy work). A term with neighbour lists
   // keeps them valid for q here.
@@ -176,11 +180,18 @@ class ForceField {
 
  private:
   void evaluate(const Coords& q, Forces& out, bool energies, const Evaluation& how);
+  // Adds each part column to its total, then sums the potential over the other columns.
+  void total_energies(Forces& out) const;
   TermEvaluation for_term(std::size_t k, const Evaluation& how, ForceMasks* keep) const;
 
   std::vector<std::unique_ptr<ForceTerm>> terms_;
   std::vector<std::string> names_;
   std::vector<std::size_t> name_counts_;  // per term
+  struct EnergyPart {
+    std::size_t part, total;  // columns
+  };
+  std::vector<EnergyPart> parts_;
+  std::vector<bool> is_part_;  // per column
   WorkCounters evaluations_;  // the evaluation counts; the terms add theirs in work()
 };
 

@@ -20,6 +20,7 @@
 #include <cstdint>
 
 #include "hwy/highway.h"
+#include "hwy/contrib/math/math-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace vimd {
@@ -107,6 +108,16 @@ HWY_INLINE SimdMaskOf<Real> operator<(SimdVec<Real> a, double b) {
   return {hn::Lt(a.v, SimdVec<Real>::broadcast(b).v)};
 }
 template <class Real>
+HWY_INLINE SimdMaskOf<Real> operator>(SimdVec<Real> a, double b) {
+  return {hn::Gt(a.v, SimdVec<Real>::broadcast(b).v)};
+}
+// Whether any lane is set: for work that only some vectors need (a branch on the whole vector,
+// each lane's result being the same either way).
+template <class Real>
+HWY_INLINE bool any_lane(SimdMaskOf<Real> m) {
+  return !hn::AllFalse(typename SimdVec<Real>::Tag(), m.m);
+}
+template <class Real>
 HWY_INLINE SimdMaskOf<Real> operator&(SimdMaskOf<Real> a, SimdMaskOf<Real> b) {
   return {hn::And(a.m, b.m)};
 }
@@ -191,6 +202,11 @@ HWY_INLINE SimdVec<Real> simd_min(SimdVec<Real> a, SimdVec<Real> b) {
 template <class Real>
 HWY_INLINE SimdVec<Real> simd_sqrt(SimdVec<Real> x) {
   return {hn::Sqrt(x.v)};
+}
+// e^x, within 1 ulp (Highway's contrib/math).
+template <class Real>
+HWY_INLINE SimdVec<Real> simd_exp(SimdVec<Real> x) {
+  return {hn::Exp(typename SimdVec<Real>::Tag(), x.v)};
 }
 template <class Real>
 HWY_INLINE SimdVec<Real> simd_max(SimdVec<Real> a, SimdVec<Real> b) {

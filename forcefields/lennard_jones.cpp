@@ -1,6 +1,7 @@
 #include "forcefields/lennard_jones.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "engine/errors.hpp"
@@ -64,6 +65,20 @@ LjConstants LjConstants::from_config(const ForceFieldConfig& config) {
 }
 
 int LjConstants::continuity(double) const { return lj_continuity(modifier, sw.smoothness); }
+
+std::string LjConstants::describe(double cutoff_distance) const {
+  const int n = continuity(cutoff_distance);
+  std::string text = "LJ " + (n < 0 ? std::string("discontinuous") : "C^" + std::to_string(n));
+  char buf[160] = "";
+  if (modifier == VdwModifier::none) std::snprintf(buf, sizeof buf, " (the energy jumps at the cut-off)");
+  if (modifier == VdwModifier::potential_shift) std::snprintf(buf, sizeof buf, " (the force jumps at the cut-off)");
+  if (modifier == VdwModifier::force_switch)
+    std::snprintf(buf, sizeof buf, " (force-switch %g-%g nm)", r_switch, cutoff_distance);
+  if (modifier == VdwModifier::potential_switch)
+    std::snprintf(buf, sizeof buf, " (potential-switch %g-%g nm, switch_smoothness %d)", r_switch, cutoff_distance,
+                  sw.smoothness);
+  return text + buf;
+}
 
 int lj_continuity(VdwModifier modifier, int smoothness) {
   switch (modifier) {

@@ -34,6 +34,7 @@ struct LjConstants {
   bool present() const { return true; }
   VdwModifier variant() const { return modifier; }
   int continuity(double cutoff) const;
+  std::string describe(double cutoff) const;  // for vimd check: the smoothness and what limits it
   bool potential_switched() const { return modifier == VdwModifier::potential_switch; }
   const SwitchFunction& potential_switch() const { return sw; }
 

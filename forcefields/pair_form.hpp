@@ -40,6 +40,8 @@ concept FormConstants = requires(const C& c, const ForceFieldConfig& config, dou
   // n such that the pair potential is C^n over the whole range, cut-off included (−1: the energy
   // itself jumps there). n ≥ 1 lets a variational step leave its pair set free.
   { c.continuity(cutoff) } -> std::same_as<int>;
+  // That smoothness in words, for vimd check: "LJ C^0 (the force jumps at the cut-off)".
+  { c.describe(cutoff) } -> std::same_as<std::string>;
 };
 
 }  // namespace vimd

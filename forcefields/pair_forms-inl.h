@@ -7,6 +7,7 @@
 #define VIMD_FORCEFIELDS_PAIR_FORMS_INL_H_
 #endif
 
+#include "forcefields/ewald-inl.h"
 #include "forcefields/lennard_jones-inl.h"
 #include "forcefields/reaction_field-inl.h"
 

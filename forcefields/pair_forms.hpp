@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "engine/errors.hpp"
+#include "forcefields/ewald.hpp"
 #include "forcefields/lennard_jones.hpp"
 #include "forcefields/reaction_field.hpp"
 
@@ -15,7 +16,7 @@ template <FormConstants... Form>
 struct PairFormList {};
 
 using VdwForms = PairFormList<LjConstants>;
-using CoulombForms = PairFormList<ReactionField>;
+using CoulombForms = PairFormList<ReactionField, EwaldRealSpace>;
 
 // The constants of every listed form (std::get<LjConstants>(forms), ...), built from a configuration.
 // Every value of `coulomb` but "none" belongs to a Coulomb form; one that no form takes is refused.

@@ -44,6 +44,7 @@ struct ReactionField {
   bool present() const { return kind == CoulombKind::reaction_field; }
   CoulombModifier variant() const { return modifier; }
   int continuity(double cutoff) const;
+  std::string describe(double cutoff) const;
   double self_energy(double sum_q2) const;
   bool potential_switched() const { return modifier == CoulombModifier::potential_switch; }
   const SwitchFunction& potential_switch() const { return sw; }
@@ -56,11 +57,12 @@ struct ReactionField {
   SwitchFunction sw;     // potential_switch only
 };
 
-// coulomb: "reaction-field" | "cutoff" | "none"; modifier: "none" | "potential-switch" (then
+// coulomb: "reaction-field" | "cutoff" | "none"; modifier: "none" | "potential-shift" | "potential-switch" (then
 // 0 ≤ r_switch < cutoff, and coulomb must not be "none"); throws InputError for anything else or bad
 // epsilons.
 ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, double epsilon_rf, double cutoff,
-                                  const std::string& modifier = "none", double r_switch = 0, int smoothness = 2);
+                                  const std::string& modifier = "potential-shift", double r_switch = 0,
+                                  int smoothness = 2);
 
 // n such that the Coulomb pair potential is C^n at the cut-off and the switch: the shifted V(rc) is
 // 0; its force vanishes at rc only for eps_rf = ∞ (C¹), else jumps (C⁰); switched: the smoothness.

@@ -74,7 +74,7 @@ TEST(Config, DefaultsFromTheContract) {
   EXPECT_EQ(c.forcefield.vdw_modifier, ff.vdw_modifier);
   EXPECT_EQ(c.forcefield.coulomb, ff.coulomb);
   EXPECT_EQ(c.forcefield.epsilon_rf, ff.epsilon_rf);
-  EXPECT_EQ(c.forcefield.coulomb_modifier, "none");
+  EXPECT_EQ(c.forcefield.coulomb_modifier, "potential-shift");  // GROMACS's default
   EXPECT_EQ(c.forcefield.switch_smoothness, 2);  // GROMACS's potential-switch
   EXPECT_EQ(c.forcefield.neighbor_skin, ff.neighbor_skin);
   EXPECT_EQ(c.integrator.type, in.type);
@@ -106,7 +106,7 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"negative_steps.toml", "steps must not be negative"},
       {"zero_cutoff.toml", "cutoff must be positive"},
       {"bad_modifier.toml", "did you mean \"potential-shift\"? (choices: none, potential-shift, force-switch, potential-switch)"},
-      {"bad_coulomb.toml", "coulomb = \"pme\" is not supported (choices: reaction-field, cutoff, none)"},
+      {"bad_coulomb.toml", "coulomb = \"multipole\" is not supported (choices: reaction-field, cutoff, pme, none)"},
       {"bad_integrator_type.toml", "(choices: verlet, shake, rattle, vi, rk, minimize)"},
       {"bad_projection.toml", "(choices: euclidean, mass)"},
       {"bad_solver_precision.toml", "(choices: mixed, double)"},
@@ -130,8 +130,8 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"fractional_switch_smoothness.toml", "switch_smoothness must be an integer, found a floating-point number"},
       {"coulomb_switch_beyond_cutoff.toml", "coulomb_switch (0.95 nm) must be smaller than cutoff (0.9 nm)"},
       {"coulomb_switch_missing.toml", "needs coulomb_switch"},
-      {"coulomb_modifier_without_coulomb.toml", "needs coulomb = \"reaction-field\" or \"cutoff\""},
-      {"bad_coulomb_modifier.toml", "(choices: none, potential-switch)"},
+      {"coulomb_modifier_without_coulomb.toml", "needs coulomb = \"reaction-field\", \"cutoff\" or \"pme\""},
+      {"bad_coulomb_modifier.toml", "(choices: none, potential-shift, potential-switch)"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);
@@ -203,6 +203,12 @@ TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
       {"switch_smoothness", 3L},
       {"epsilon_r", 2.0},
       {"epsilon_rf", 0.0},
+      {"ewald_rtol", 1e-6},
+      {"pme_order", 8L},
+      {"fourier_spacing", 0.1},
+      {"fourier_nx", 32L},
+      {"fourier_ny", 32L},
+      {"fourier_nz", 32L},
       {"neighbor_skin", 0.1},
       {"neighbor_search_skin", 0.5},
       {"precision", std::string("mixed")},

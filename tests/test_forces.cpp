@@ -12,6 +12,7 @@
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/lennard_jones-inl.h"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/ewald-inl.h"
 #include "forcefields/reaction_field-inl.h"
 #include "forcefields/registry.hpp"
 #include "test_ff_systems.hpp"
@@ -193,6 +194,93 @@ TEST(NonbondedPairTerm, CoulombIncludesGromacsExclusionAndSelfTerms) {
   }
 }
 
+// β as GROMACS finds it (erfc(β r) = rtol by bisection: GROMACS 2022's log for rc 0.9 nm, rtol 1e-5
+// reads "Gaussian width (1/beta) of 0.288146 nm"), and its grid sizes (grompp on a 3.00129 nm box:
+// 28 for spacing 0.12, 20 for 0.16, 52 for 0.06, 104 for 0.03, 128 for 0.025, 144 for 0.0215).
+TEST(EwaldRealSpace, BetaAndGridAsGromacsChoosesThem) {
+  const double beta = ewald_beta(0.9, 1e-5);
+  EXPECT_NEAR(1 / beta, 0.288146, 5e-7);
+  EXPECT_NEAR(std::erfc(beta * 0.9), 1e-5, 1e-15);
+  Box box;
+  box.length = Vec3::Constant(3.00129);
+  ForceFieldConfig config;
+  config.coulomb = "pme";
+  for (auto [spacing, n] : {std::pair{0.12, 28}, {0.16, 20}, {0.06, 52}, {0.03, 104}, {0.025, 128}, {0.0215, 144}}) {
+    config.fourier_spacing = spacing;
+    EXPECT_EQ(pme_grid_size(config, box), (std::array<int, 3>{n, n, n})) << "spacing " << spacing;
+  }
+  config.fourier_spacing = 1.0;  // 4 points wanted, but order 8 needs 2 (8 − 1) = 14
+  config.pme_order = 8;
+  EXPECT_EQ(pme_grid_size(config, box)[0], 14);
+  config.fourier_n = {13, 0, 0};
+  EXPECT_THROW(pme_grid_size(config, box), InputError);
+  config.fourier_n = {14, 30, 17};
+  EXPECT_EQ(pme_grid_size(config, box), (std::array<int, 3>{14, 30, 17}));
+  box.length[2] = 0;
+  EXPECT_THROW(pme_grid_size(config, box), InputError);
+}
+
+// The vector erfc (Cody's three ranges, each where a lane needs it) against std::erfc, lanes of one
+// vector spanning the ranges, in double and in single precision.
+TEST(EwaldRealSpace, VectorErfcMatchesTheStandardLibrary) {
+  for (double x0 = 0; x0 < 6; x0 += 0.0037) {
+    double xs[16], erfc[16], gauss[16];
+    for (int k = 0; k < 16; ++k) xs[k] = x0 + 0.41 * k * (k % 3);
+    SimdDouble e, g;
+    ewald_erfc(simd_load(xs), e, g);
+    simd_store(erfc, e);
+    simd_store(gauss, g);
+    float xf[16], erfc_f[16], gauss_f[16];
+    for (int k = 0; k < 16; ++k) xf[k] = static_cast<float>(xs[k]);
+    SimdFloat ef, gf;
+    ewald_erfc(simd_load(xf), ef, gf);
+    simd_store(erfc_f, ef);
+    simd_store(gauss_f, gf);
+    for (std::size_t k = 0; k < hn::Lanes(SimdTag()); ++k) {
+      EXPECT_NEAR(erfc[k], std::erfc(xs[k]), 3e-14 * std::erfc(xs[k])) << "x = " << xs[k];
+      EXPECT_NEAR(gauss[k], std::exp(-xs[k] * xs[k]), 3e-14 * std::exp(-xs[k] * xs[k])) << "x = " << xs[k];
+    }
+    for (std::size_t k = 0; k < hn::Lanes(SimdFloat::Tag()); ++k) {
+      if (xf[k] > 4.5f) continue;  // single precision is for pairs inside the cut-off: βr < 4
+      const double x = xf[k];
+      EXPECT_NEAR(erfc_f[k], std::erfc(x), 2e-5 * std::erfc(x)) << "x = " << x;
+      EXPECT_NEAR(gauss_f[k], std::exp(-x * x), 2e-5 * std::exp(-x * x)) << "x = " << x;
+    }
+  }
+}
+
+// The real-space Coulomb energy of PME from an O(N²) sum with std::erfc: interacting pairs
+// f qq (erfc(βr)/r − sh), excluded pairs inside the cut-off −f qq erf(βr)/r, self −f q² β/√π, as
+// GROMACS's Coulomb (SR); unshifted, potential-shift and switched (then β from the switch's start).
+TEST(NonbondedPairTerm, EwaldRealSpaceIncludesGromacsExclusionAndSelfTerms) {
+  auto [system, q] = testing::water_like_system(10, Vec3(2.0, 2.1, 1.9), 3);
+  for (const char* modifier : {"none", "potential-shift", "potential-switch"}) {
+    auto config = testing::pair_config("potential-shift", "pme");
+    config.coulomb_modifier = modifier;
+    config.coulomb_switch = 0.6;
+    const bool switched = config.coulomb_modifier == "potential-switch";
+    NonbondedPairTerm term(system, config);
+    const double rc = config.cutoff, f = 138.935458;
+    const double beta = ewald_beta(switched ? 0.6 : rc, config.ewald_rtol);
+    const double shift = config.coulomb_modifier == "potential-shift" ? std::erfc(beta * rc) / rc : 0.0;
+    double expected = 0;
+    for (int i = 0; i < system.n_atoms(); ++i) {
+      expected -= f * system.charge[i] * system.charge[i] * beta / std::sqrt(M_PI);
+      for (int j = i + 1; j < system.n_atoms(); ++j) {
+        const double r = system.box.minimum_image(q.col(i) - q.col(j)).norm();
+        if (r >= rc) continue;
+        const double qq = f * system.charge[i] * system.charge[j];
+        if (system.molecule[i] == system.molecule[j])
+          expected -= qq * std::erf(beta * r) / r;
+        else
+          expected += qq * (std::erfc(beta * r) / r - shift) * (switched ? manual_switch(r, 0.6, rc) : 1.0);
+      }
+    }
+    const auto result = evaluate(term, q);
+    EXPECT_NEAR(result.energies[1], expected, 1e-12 * std::abs(expected)) << modifier;
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Finite differences for every modifier × Coulomb kind.
 
@@ -249,7 +337,8 @@ INSTANTIATE_TEST_SUITE_P(
                       PairCase{"potential-switch", "reaction-field", 78.0}, PairCase{"potential-shift", "cutoff", 0.0},
                       PairCase{"force-switch", "cutoff", 0.0}, PairCase{"none", "none", 0.0},
                       PairCase{"potential-shift", "none", 0.0}, PairCase{"force-switch", "none", 0.0},
-                      PairCase{"potential-switch", "none", 0.0}),
+                      PairCase{"potential-switch", "none", 0.0}, PairCase{"none", "pme", 0.0},
+                      PairCase{"potential-shift", "pme", 0.0}, PairCase{"potential-switch", "pme", 0.0}),
     [](const auto& info) {
       std::string name =
           info.param.modifier + "_" + info.param.coulomb + "_eps" + std::to_string(int(info.param.epsilon_rf));
@@ -303,6 +392,8 @@ std::vector<SwitchCase> switch_cases() {
     cases.push_back({"potential-switch", "cutoff", "potential-switch", k, 0.6});
     cases.push_back({"potential-switch", "reaction-field", "potential-switch", k, 0.05});
   }
+  for (int k = 2; k <= 6; ++k) cases.push_back({"potential-switch", "pme", "potential-switch", k, 0.6});
+  cases.push_back({"potential-shift", "pme", "none", 2, 0.6});  // PME unshifted: the energy jumps at rc
   return cases;
 }
 
@@ -543,7 +634,7 @@ TEST(SwitchSmoothness, BadSettingsAreRefused) {
   EXPECT_THROW(make_lj_constants(VdwModifier::potential_switch, 0.9, 0.7, 1), InputError);
   EXPECT_THROW(make_lj_constants(VdwModifier::potential_switch, 0.9, 0.7, 7), InputError);
   EXPECT_THROW(make_reaction_field("reaction-field", 1.0, 0.0, 0.9, "potential-switch", 0.9, 2), InputError);
-  EXPECT_THROW(make_reaction_field("reaction-field", 1.0, 0.0, 0.9, "potential-shift", 0.5, 2), InputError);
+  EXPECT_THROW(make_reaction_field("reaction-field", 1.0, 0.0, 0.9, "shift", 0.5, 2), InputError);
   EXPECT_THROW(make_reaction_field("none", 1.0, 0.0, 0.9, "potential-switch", 0.5, 2), InputError);
 }
 
@@ -682,7 +773,7 @@ TEST(ForceField, SinglePointChangesNothingTheRunComputes) {
 TEST(ForceFieldRegistry, RejectsBadConfiguration) {
   auto [system, q] = testing::water_like_system(4, Vec3(2.0, 2.0, 2.0), 1);
   EXPECT_THROW(make_force_field(system, testing::pair_config("switch", "reaction-field")), InputError);
-  EXPECT_THROW(make_force_field(system, testing::pair_config("potential-shift", "pme")), InputError);
+  EXPECT_THROW(make_force_field(system, testing::pair_config("potential-shift", "p3m")), InputError);
   EXPECT_THROW(make_force_field(system, testing::pair_config("potential-switch", "reaction-field", 0, 0.9, 1.0)),
                InputError);
   // The box must hold twice the cut-off.

@@ -15,6 +15,7 @@
 #include "engine/neighbor_list.hpp"
 #include "forcefields/lennard_jones-inl.h"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/ewald-inl.h"
 #include "forcefields/reaction_field-inl.h"
 #include "test_ff_systems.hpp"
 
@@ -41,32 +42,41 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
                       const Coords* pairs_at = nullptr) {
   const LjConstants& lj = term.form<LjConstants>();
   const ReactionField& rf = term.form<ReactionField>();
+  const EwaldRealSpace& ewald = term.form<EwaldRealSpace>();
   const double rc2 = lj.cutoff * lj.cutoff;
-  const bool coulomb = rf.kind == CoulombKind::reaction_field;
+  const bool coulomb = rf.kind == CoulombKind::reaction_field || ewald.present();
+  const double prefactor = ewald.present() ? ewald.prefactor : rf.prefactor;
   Reference ref;
   ref.f.setZero(3, q.cols());
   ref.hu.setZero(3, q.cols());
   for (int i = 0; i < q.cols(); ++i) {
     if (coulomb) {
-      ref.coulomb += rf_self_energy(rf, s.charge[i] * s.charge[i]);
-      ref.coulomb_scale += std::abs(rf_self_energy(rf, s.charge[i] * s.charge[i]));
+      const double self = ewald.present() ? ewald.self_energy(s.charge[i] * s.charge[i])
+                                          : rf_self_energy(rf, s.charge[i] * s.charge[i]);
+      ref.coulomb += self;
+      ref.coulomb_scale += std::abs(self);
     }
     for (int j = i + 1; j < q.cols(); ++j) {
       const Vec3 d = s.box.minimum_image(q.col(i) - q.col(j));
       const double r2 = d.squaredNorm();
       const bool excluded = std::binary_search(s.exclusions[i].begin(), s.exclusions[i].end(), j);
-      // Excluded pairs (the reaction-field correction) always go by their current distance.
+      // Excluded pairs (the reaction-field or Ewald correction) always go by their current distance.
       const bool fixed = pairs_at && !excluded;
       const bool counts =
           fixed ? s.box.minimum_image(pairs_at->col(i) - pairs_at->col(j)).squaredNorm() < rc2 : r2 < rc2;
       if (!counts) continue;
-      const double qq = rf.prefactor * s.charge[i] * s.charge[j];
+      const double qq = prefactor * s.charge[i] * s.charge[j];
       const Vec3 du = u.col(i) - u.col(j);
       double v = 0, g = 0, a = 0, b = 0;
       if (excluded) {
         if (!coulomb) continue;
-        rf_excluded_energy_force(rf, qq, r2, v, g);
-        rf_excluded_hessian(rf, qq, r2, a, b);
+        if (ewald.present()) {
+          ewald_excluded_energy_force(ewald, qq, r2, v, g);
+          ewald_excluded_hessian(ewald, qq, r2, a, b);
+        } else {
+          rf_excluded_energy_force(rf, qq, r2, v, g);
+          rf_excluded_hessian(rf, qq, r2, a, b);
+        }
         ref.coulomb += v;
         ref.coulomb_scale += std::abs(v);
       } else {
@@ -77,7 +87,13 @@ Reference brute_force(const NonbondedPairTerm& term, const System& s, const Coor
         ref.lj_scale += std::abs(v);
         if (coulomb) {
           double vc, gc, ac, bc;
-          if (rf.modifier == CoulombModifier::potential_switch) {
+          if (ewald.present() && ewald.modifier == EwaldModifier::potential_switch) {
+            ewald_energy_force<EwaldModifier::potential_switch>(ewald, qq, 1 / r, r2, vc, gc);
+            ewald_hessian<EwaldModifier::potential_switch>(ewald, qq, 1 / r, r2, ac, bc);
+          } else if (ewald.present()) {
+            ewald_energy_force<EwaldModifier::shifted>(ewald, qq, 1 / r, r2, vc, gc);
+            ewald_hessian<EwaldModifier::shifted>(ewald, qq, 1 / r, r2, ac, bc);
+          } else if (rf.modifier == CoulombModifier::potential_switch) {
             rf_energy_force<CoulombModifier::potential_switch>(rf, qq, 1 / r, r2, vc, gc);
             rf_hessian<CoulombModifier::potential_switch>(rf, qq, 1 / r, r2, ac, bc);
           } else {
@@ -302,7 +318,7 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
   for (const std::string& target : targets) {
     simd::use_target(target);
     ASSERT_EQ(simd::target_name(), target);
-    for (const char* coulomb : {"reaction-field", "none"})
+    for (const char* coulomb : {"reaction-field", "pme", "none"})
       for (const char* modifier : kModifiers) {
         auto config = testing::pair_config(modifier, coulomb, 0.0);
         NonbondedPairTerm term(system, config);
@@ -312,21 +328,21 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
         NonbondedPairTerm mixed_term(system, config);
         expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed " + modifier + " " + coulomb);
       }
-    // Both switched: by the same S (one switch for the sum, 0.7 nm) and by different ones.
+    // Both switched: by the same S (one switch for the sum, 0.7 nm) and by different ones; PME's
+    // real space switched.
+    for (const char* coulomb : {"reaction-field", "pme"})
     for (double coulomb_switch : {0.7, 0.6}) {
-      auto config = testing::pair_config("potential-switch", "reaction-field", 0.0);
+      auto config = testing::pair_config("potential-switch", coulomb, 0.0);
       config.coulomb_modifier = "potential-switch";
       config.coulomb_switch = coulomb_switch;
       config.switch_smoothness = 4;
       NonbondedPairTerm term(system, config);
-      expect_matches_brute_force(term, system, q, target + " LJ and Coulomb switched, Coulomb from " +
-                                                      std::to_string(coulomb_switch));
-      expect_single_precision_matches_brute_force(
-          term, system, q, target + " single, LJ and Coulomb switched, Coulomb from " + std::to_string(coulomb_switch));
+      const std::string what = " LJ and " + std::string(coulomb) + " switched, Coulomb from " + std::to_string(coulomb_switch);
+      expect_matches_brute_force(term, system, q, target + what);
+      expect_single_precision_matches_brute_force(term, system, q, target + " single," + what);
       config.precision = "mixed";
       NonbondedPairTerm mixed_term(system, config);
-      expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed, LJ and Coulomb switched, Coulomb from " +
-                                                                  std::to_string(coulomb_switch));
+      expect_mixed_matches_brute_force(mixed_term, system, q, target + " mixed," + what);
     }
   }
   simd::use_target("");

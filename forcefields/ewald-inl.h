@@ -1,0 +1,161 @@
+// PME real-space pair kernels (formulas and conventions: ewald.hpp), as templates on the number
+// type: double (std::erfc, for tests and the excluded pairs), or SimdVec (erfc from W. J. Cody's
+// rational approximations), and as a pair form of the pair loop (pair_form-inl.h). A Highway
+// per-target header: see engine/simd-inl.h.
+#if defined(VIMD_FORCEFIELDS_EWALD_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef VIMD_FORCEFIELDS_EWALD_INL_H_
+#undef VIMD_FORCEFIELDS_EWALD_INL_H_
+#else
+#define VIMD_FORCEFIELDS_EWALD_INL_H_
+#endif
+
+#include <cmath>
+#include <tuple>
+
+#include "engine/simd-inl.h"
+#include "forcefields/ewald.hpp"
+#include "forcefields/pair_form-inl.h"
+#include "forcefields/switch_function-inl.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace vimd {
+namespace HWY_NAMESPACE {
+
+// Horner's rule for c[0] + c[1] x + ... , highest power last.
+template <class V, std::size_t N>
+HWY_INLINE V ewald_polynomial(V x, const double (&c)[N]) {
+  V p = V::broadcast(c[N - 1]);
+  for (std::size_t k = N - 1; k-- > 0;) p = mul_add(p, x, V::broadcast(c[k]));
+  return p;
+}
+
+// erfc(x) for x ≥ 0 and e^(−x²), lane by lane. W. J. Cody, "Rational Chebyshev approximations for
+// the error function", Math. Comp. 23 (1969) 631-637 (the coefficients of Netlib's specfun/calerf),
+// relative error ~1e-16 in double; each range only where a lane needs it (the range of most pairs,
+// 0.47 ≤ x ≤ 4, always).
+template <class V>
+HWY_INLINE void ewald_erfc(V x, V& erfc, V& gaussian) {
+  static constexpr double kSmallNum[] = {3.20937758913846947e3, 3.77485237685302021e2, 1.13864154151050156e2,
+                                         3.16112374387056560e0, 1.85777706184603153e-1};
+  static constexpr double kSmallDen[] = {2.84423683343917062e3, 1.28261652607737228e3, 2.44024637934444173e2,
+                                         2.36012909523441209e1, 1.0};
+  static constexpr double kMidNum[] = {1.23033935479799725e3, 2.05107837782607147e3, 1.71204761263407058e3,
+                                       8.81952221241769090e2, 2.98635138197400131e2, 6.61191906371416295e1,
+                                       8.88314979438837594e0, 5.64188496988670089e-1, 2.15311535474403846e-8};
+  static constexpr double kMidDen[] = {1.23033935480374942e3, 3.43936767414372164e3, 4.36261909014324716e3,
+                                       3.29079923573345963e3, 1.62138957456669019e3, 5.37181101862009858e2,
+                                       1.17693950891312499e2, 1.57449261107098347e1, 1.0};
+  static constexpr double kLargeNum[] = {6.58749161529837803e-4, 1.60837851487422766e-2, 1.25781726111229246e-1,
+                                         3.60344899949804439e-1, 3.05326634961232344e-1, 1.63153871373020978e-2};
+  static constexpr double kLargeDen[] = {2.33520497626869185e-3, 6.05183413124413191e-2, 5.27905102951428412e-1,
+                                         1.87295284992346047e0, 2.56852019228982242e0, 1.0};
+  constexpr double kSmall = 0.46875, kLarge = 4.0;
+  const V x2 = x * x;
+  gaussian = simd_exp(-x2);
+  erfc = gaussian * (ewald_polynomial(x, kMidNum) / ewald_polynomial(x, kMidDen));
+  const auto small = x < kSmall;
+  if (any_lane(small)) {
+    const V erf = x * ewald_polynomial(x2, kSmallNum) / ewald_polynomial(x2, kSmallDen);
+    erfc = select(small, 1.0 - erf, erfc);
+  }
+  const auto large = x > kLarge;
+  if (any_lane(large)) {
+    const V z = 1.0 / x2;
+    const V tail = (0.56418958354775628695 - z * ewald_polynomial(z, kLargeNum) / ewald_polynomial(z, kLargeDen)) / x;
+    erfc = select(large, gaussian * tail, erfc);
+  }
+}
+HWY_INLINE void ewald_erfc(double x, double& erfc, double& gaussian) {
+  erfc = std::erfc(x);
+  gaussian = std::exp(-x * x);
+}
+
+// erfc(βr)/r and 2β/√π e^(−β²r²), from r² and 1/r.
+template <class T>
+HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T& gauss) {
+  T erfc;
+  ewald_erfc(e.beta * (r2 * rinv), erfc, gauss);
+  erfc_r = erfc * rinv;
+  gauss = gauss * (e.beta * M_2_SQRTPI);
+}
+
+template <EwaldModifier M, class T>
+HWY_INLINE void ewald_energy_force(const EwaldRealSpace& e, T qq, T rinv, T r2, T& v, T& g) {
+  T erfc_r, gauss;
+  ewald_parts(e, r2, rinv, erfc_r, gauss);
+  v = qq * (erfc_r - e.shift);
+  g = qq * (erfc_r + gauss) * (rinv * rinv);
+  if constexpr (M == EwaldModifier::potential_switch) apply_switch_energy_force(e.sw, r2 * rinv, rinv, v, g);
+}
+
+template <EwaldModifier M, class T>
+HWY_INLINE void ewald_hessian(const EwaldRealSpace& e, T qq, T rinv, T r2, T& a, T& b) {
+  T erfc_r, gauss;
+  ewald_parts(e, r2, rinv, erfc_r, gauss);
+  const T rinv2 = rinv * rinv;
+  const T slope = (erfc_r + gauss) * rinv2;  // −φ'/r per unit qq
+  a = -qq * slope;
+  b = qq * (3.0 * slope + (2.0 * e.beta * e.beta) * gauss) * rinv2;
+  if constexpr (M == EwaldModifier::potential_switch) apply_switch_hessian(e.sw, qq * erfc_r, r2 * rinv, rinv, a, b);
+}
+
+// Excluded pair inside the cut-off: φ = −qq erf(βr)/r, taking back what the mesh counts of it.
+inline void ewald_excluded_energy_force(const EwaldRealSpace& e, double qq, double r2, double& v, double& g) {
+  const double r = std::sqrt(r2), erf_r = std::erf(e.beta * r) / r;
+  const double gauss = e.beta * M_2_SQRTPI * std::exp(-e.beta * e.beta * r2);
+  v = -qq * erf_r;
+  g = qq * (gauss - erf_r) / r2;
+}
+inline void ewald_excluded_hessian(const EwaldRealSpace& e, double qq, double r2, double& a, double& b) {
+  const double r = std::sqrt(r2), erf_r = std::erf(e.beta * r) / r;
+  const double gauss = e.beta * M_2_SQRTPI * std::exp(-e.beta * e.beta * r2);
+  a = qq * (erf_r - gauss) / r2;
+  b = qq * (3 * (gauss - erf_r) / r2 + 2 * e.beta * e.beta * gauss) / r2;
+}
+
+// The excluded-pair terms of slots i and j at distance² r2 < cutoff², as the pair loop calls them.
+template <class Real>
+inline void excluded_energy_force(const EwaldRealSpace& e, const PairViewOf<Real>& d, int i, int j, double r2,
+                                  double& v, double& g) {
+  ewald_excluded_energy_force(e, e.prefactor * d.charge[i] * d.charge[j], r2, v, g);
+}
+template <class Real>
+inline void excluded_hessian(const EwaldRealSpace& e, const PairViewOf<Real>& d, int i, int j, double r2, double& a,
+                             double& b) {
+  ewald_excluded_hessian(e, e.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+}
+
+// The i atoms' charges, times f/eps_r.
+template <class Real>
+struct EwaldHalf {
+  Real q[NeighborList::kHalfSize];
+  HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
+    const EwaldRealSpace& e = std::get<EwaldRealSpace>(d.forms);
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) q[ii] = static_cast<Real>(e.prefactor * d.charge[ib + ii]);
+  }
+  static constexpr bool active(int) { return true; }
+};
+
+template <EwaldModifier M>
+struct PairForm<EwaldRealSpace, M> {
+  using Constants = EwaldRealSpace;
+  static constexpr EwaldModifier kVariant = M;
+  template <class Real>
+  using Half = EwaldHalf<Real>;
+  template <class Real>
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                      const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
+    ewald_energy_force<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, v, g);
+  }
+  template <class Real>
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+    ewald_hessian<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, a, b);
+  }
+};
+
+}  // namespace HWY_NAMESPACE
+}  // namespace vimd
+HWY_AFTER_NAMESPACE();
+
+#endif  // VIMD_FORCEFIELDS_EWALD_INL_H_
