@@ -720,6 +720,50 @@ TEST(HarmonicAngleTerm, NearlyStraightAngle) {
   expect_derivatives_match(term, q, "angle near 180 degrees");
 }
 
+// A term of constant energies, for the field's bookkeeping of energy columns.
+class ConstantEnergyTerm : public ForceTerm {
+ public:
+  ConstantEnergyTerm(std::vector<std::string> names, std::vector<std::string> part_of, std::vector<double> values)
+      : names_(std::move(names)), part_of_(std::move(part_of)), values_(std::move(values)) {}
+  std::vector<std::string> energy_names() const override { return names_; }
+  std::vector<std::string> energy_part_of() const override { return part_of_; }
+  void add_forces(const Coords&, Coords&, std::span<double> energies, const TermEvaluation&) override {
+    for (std::size_t k = 0; k < energies.size(); ++k) energies[k] += values_[k];
+  }
+  void add_hessian_vector(const Coords&, const Coords&, Coords&, const TermEvaluation&) override {}
+  void add_single_point(const Coords&, Coords&, std::span<double> energies) const override {
+    for (std::size_t k = 0; k < energies.size(); ++k) energies[k] += values_[k];
+  }
+
+ private:
+  std::vector<std::string> names_, part_of_;
+  std::vector<double> values_;
+};
+
+// A column that is a part of another (the PME mesh's coulomb_recip of coulomb) is reported on its
+// own, added to its total, and counted in the potential once.
+TEST(ForceField, EnergyPartsAreAddedToTheirTotalAndCountedOnce) {
+  ForceField field;
+  field.add(std::make_unique<ConstantEnergyTerm>(std::vector<std::string>{"lj", "coulomb"}, std::vector<std::string>{},
+                                                 std::vector<double>{1.0, -10.0}));
+  field.add(std::make_unique<ConstantEnergyTerm>(std::vector<std::string>{"bonds", "coulomb_recip"},
+                                                 std::vector<std::string>{"", "coulomb"}, std::vector<double>{5.0, 2.5}));
+  EXPECT_EQ(field.energy_names(), (std::vector<std::string>{"lj", "coulomb", "bonds", "coulomb_recip"}));
+  const Coords q = Coords::Zero(3, 2);
+  Forces forces, single;
+  field.compute(q, forces);
+  field.single_point(q, single);
+  for (const Forces* f : {&forces, &single}) {
+    EXPECT_EQ(f->terms, (std::vector<double>{1.0, -7.5, 5.0, 2.5}));
+    EXPECT_EQ(f->potential, 1.0 - 7.5 + 5.0);
+  }
+  ForceField wrong;
+  EXPECT_THROW(wrong.add(std::make_unique<ConstantEnergyTerm>(std::vector<std::string>{"coulomb_recip"},
+                                                              std::vector<std::string>{"coulomb"},
+                                                              std::vector<double>{1.0})),
+               std::logic_error);
+}
+
 TEST(ForceFieldRegistry, BuildsAllTermsWithTheirEnergyNames) {
   auto [system, q] = testing::water_like_system(12, Vec3(2.0, 2.0, 2.0), 11);
   auto field = make_force_field(system, testing::pair_config("potential-switch", "reaction-field", 78.0));

@@ -50,13 +50,18 @@ def write_mdp(path, **settings):
     path.write_text("".join(f"{k.replace('_', '-')} = {v}\n" for k, v in settings.items()))
 
 
-def nonbonded_mdp(cutoff, vdw_modifier, vdw_switch, epsilon_rf, coulomb="reaction-field", rlist=None):
+def nonbonded_mdp(cutoff, vdw_modifier, vdw_switch, epsilon_rf, coulomb="reaction-field", rlist=None, pme=None):
     """GROMACS settings matching a vimd [forcefield] table, with a fixed pair list of radius rlist
-    (default: the cut-off, exact for reruns) rebuilt every 10 steps."""
+    (default: the cut-off, exact for reruns) rebuilt every 10 steps. coulomb = "pme" takes
+    pme = dict(ewald_rtol=..., pme_order=..., fourier_spacing=...) (GROMACS's defaults where absent)."""
+    coulombtype = {"reaction-field": "reaction-field", "cutoff": "cut-off", "pme": "PME"}[coulomb]
     s = dict(cutoff_scheme="Verlet", verlet_buffer_tolerance=-1, rlist=rlist or cutoff, nstlist=10,
-             coulombtype="reaction-field" if coulomb == "reaction-field" else "cut-off",
-             rcoulomb=cutoff, epsilon_rf=epsilon_rf, vdwtype="cut-off", vdw_modifier=vdw_modifier,
+             coulombtype=coulombtype, rcoulomb=cutoff, vdwtype="cut-off", vdw_modifier=vdw_modifier,
              rvdw=cutoff, DispCorr="no", pbc="xyz")
+    if coulomb == "pme":
+        s.update(pme or {})
+    else:
+        s["epsilon_rf"] = epsilon_rf
     if vdw_modifier in ("potential-switch", "force-switch"):
         s["rvdw_switch"] = vdw_switch
     return s
