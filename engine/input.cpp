@@ -106,6 +106,11 @@ std::optional<std::string> net_charge_warning(const System& s, const RunConfig& 
   const double q = s.charge.sum();
   // grompp's threshold for its own note on a net charge.
   if (c.forcefield.coulomb == "none" || std::abs(q) < 1e-4) return std::nullopt;
+  if (c.forcefield.coulomb == "pme")
+    return c.topology.string() + ": the system has a net charge of " + format("%.6g", q) +
+           " e: Ewald with a net charge adds a uniform neutralising background (its energy is in coulomb_recip, "
+           "as GROMACS's), which can cause artifacts such as ions drifting into regions of low dielectric; "
+           "add counter-ions unless this is intended";
   return c.topology.string() + ": the system has a net charge of " + format("%.6g", q) + " e (coulomb = \"" +
          c.forcefield.coulomb + "\"): reaction-field assumes a neutral system (its medium beyond the cut-off is a " +
          "neutral dielectric), so with a net charge the energy depends on the cut-off and epsilon_rf and is not " +
