@@ -19,6 +19,7 @@
 #include "engine/observers.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
+#include "forcefields/ewald.hpp"
 #include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
 #include "forcefields/pair_forms.hpp"
@@ -247,6 +248,7 @@ int check_command(const fs::path& config_file) {
               c.forcefield.epsilon_rf, describe_pair_list(*m.force_field).c_str(), c.forcefield.precision.c_str());
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
   std::printf("\nsmoothness  %s", describe_smoothness(c.forcefield).c_str());
+  if (c.forcefield.coulomb == "pme") std::printf("\npme         %s", describe_pme(c.forcefield, s.box).c_str());
   std::unique_ptr<Integrator> integrator = make_integrator(c.integrator);
   std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.integrator.dt,
               c.integrator.steps, c.integrator.steps * c.integrator.dt);

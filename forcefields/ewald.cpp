@@ -120,4 +120,19 @@ std::array<int, 3> pme_grid_size(const ForceFieldConfig& config, const Box& box)
   return n;
 }
 
+std::string describe_pme(const ForceFieldConfig& config, const Box& box) {
+  const EwaldRealSpace e = EwaldRealSpace::from_config(config);
+  const std::array<int, 3> n = pme_grid_size(config, box);
+  const bool switched = e.modifier == EwaldModifier::potential_switch;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "beta %.6g nm^-1 (erfc(beta r) = ewald_rtol %g at r = %g nm, %s); grid %d x %d x %d (spacing %.3g x "
+                "%.3g x %.3g nm), pme_order %d: the mesh energy is C^%d (forces C^%d)",
+                e.beta, config.ewald_rtol, ewald_rtol_distance(config),
+                switched ? "the start of the switch: the switch acts where the real space is below it" : "the cut-off",
+                n[0], n[1], n[2], box.length[0] / n[0], box.length[1] / n[1], box.length[2] / n[2], config.pme_order,
+                config.pme_order - 2, config.pme_order - 3);
+  return buf;
+}
+
 }  // namespace vimd

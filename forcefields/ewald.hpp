@@ -57,4 +57,7 @@ double ewald_rtol_distance(const ForceFieldConfig& config);
 // GROMACS demands. Throws InputError for a given size below that minimum or a non-periodic box.
 std::array<int, 3> pme_grid_size(const ForceFieldConfig& config, const Box& box);
 
+// For vimd check: β and where it comes from, the grid, the order and the mesh's smoothness.
+std::string describe_pme(const ForceFieldConfig& config, const Box& box);
+
 }  // namespace vimd

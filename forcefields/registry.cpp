@@ -1,5 +1,6 @@
 #include "forcefields/registry.hpp"
 
+#include "forcefields/ewald.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
@@ -13,6 +14,7 @@ std::unique_ptr<ForceField> make_force_field(const System& system, const ForceFi
   field->add(std::make_unique<NonbondedPairTerm>(system, config));
   field->add(std::make_unique<HarmonicBondTerm>(system.bonds, system.box));
   field->add(std::make_unique<HarmonicAngleTerm>(system.angles, system.box));
+  if (config.coulomb == "pme") pme_grid_size(config, system.box);  // checks the grid; the mesh term is next
   return field;
 }
 
