@@ -2,13 +2,13 @@
 """NVE energy conservation of vimd RATTLE next to GROMACS double precision on the same input:
 total-energy drift per atom (linear fit), the same drift over four blocks (a start transient or a
 drift that comes and goes shows there), and RMS fluctuation, same analysis for both.
-Water boxes: gmx_d md-vv with SETTLE, reaction field. `--system polymer`: the Kremer-Grest melt
+Water boxes: gmx_d md-vv with SETTLE, reaction field (`--coulomb pme`: PME at GROMACS's defaults). `--system polymer`: the Kremer-Grest melt
 (every bond rigid, WCA), gmx_d md with SHAKE 1e-8 (md-vv has no SHAKE), vimd at tolerance 1e-12;
 its defaults are dt = 5 fs and 100 ps; `--gmx-vv` runs GROMACS's velocity Verlet instead (md-vv, with
 LINCS of order 12 and 4 iterations: the integrator of vimd's RATTLE, with another constraint solver).
 A single run's drift is mostly its random walk; `--seeds N` gives each engine N independent starts.
-Usage: /usr/bin/python3 validation/gromacs_nve.py [--system water900|polymer] [--ps 20] [--dt 0.002] [--gmx-vv]
-                                                  [--seeds N]
+Usage: /usr/bin/python3 validation/gromacs_nve.py [--system water900|polymer] [--coulomb reaction-field|pme]
+                                                  [--ps 20] [--dt 0.002] [--gmx-vv] [--seeds N]
 """
 import argparse
 import json
@@ -39,6 +39,13 @@ WATER = dict(ff=dict(cutoff=0.9, vdw_modifier="potential-shift", vdw_switch=0.0,
              gmx=dict(integrator="md-vv", constraints="none", **nonbonded_mdp(0.9, "potential-shift", 0.0, 0, rlist=1.0)),
              tolerance=1e-10, dt=0.002, ps=20.0,
              label="potential-shift LJ + RF (eps_rf = inf), cut-off 0.9 nm; gmx_d md-vv + SETTLE")
+PME_WATER = dict(ff=dict(cutoff=1.0, vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="pme", ewald_rtol=1e-5,
+                         pme_order=4, fourier_spacing=0.12),
+                 gmx=dict(integrator="md-vv", constraints="none",
+                          **nonbonded_mdp(1.0, "potential-shift", 0.0, 0, coulomb="pme", rlist=1.1,
+                                          pme=dict(ewald_rtol=1e-5, pme_order=4, fourier_spacing=0.12))),
+                 tolerance=1e-10, dt=0.002, ps=20.0,
+                 label="potential-shift LJ + PME (GROMACS's defaults), cut-off 1.0 nm; gmx_d md-vv + SETTLE")
 POLYMER_CUTOFF = 0.52756  # 2^(1/6) sigma: WCA
 POLYMER = dict(ff=dict(cutoff=POLYMER_CUTOFF, vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="none"),
                gmx=dict(integrator="md", constraints="all-bonds", constraint_algorithm="shake", shake_tol=1e-8,
@@ -51,6 +58,7 @@ POLYMER = dict(ff=dict(cutoff=POLYMER_CUTOFF, vdw_modifier="potential-shift", vd
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--system", default="water900")
+    ap.add_argument("--coulomb", default="reaction-field", choices=["reaction-field", "pme"], help="water boxes only")
     ap.add_argument("--ps", type=float, help="length (default: 20 ps for water, 100 ps for the polymer)")
     ap.add_argument("--dt", type=float, help="time step (default: 0.002 ps for water, 0.005 ps for the polymer)")
     ap.add_argument("--threads", type=int, default=2)
@@ -62,7 +70,7 @@ def main():
                     help="polymer: GROMACS md-vv with LINCS (order 12, 4 iterations) instead of md with SHAKE")
     args = ap.parse_args()
     src = ROOT / "inputs" / args.system
-    setup = POLYMER if args.system == "polymer" else WATER
+    setup = POLYMER if args.system == "polymer" else PME_WATER if args.coulomb == "pme" else WATER
     if args.gmx_vv and setup is POLYMER:
         gmx = {k: v for k, v in POLYMER["gmx"].items() if k != "shake_tol"}
         gmx.update(integrator="md-vv", constraint_algorithm="lincs", lincs_order=12, lincs_iter=4)
@@ -112,7 +120,7 @@ def run_both(work, src, structure, setup, args, atoms, seed):
               nstlog=1000, comm_mode="None", tcoupl="no", pcoupl="no", continuation="no",
               **velocities, **setup["gmx"])
     run(["gmx_d", "grompp", "-f", "nve.mdp", "-c", structure, "-p", src / "topol.top", "-o", "nve.tpr", "-maxwarn", "2"], work)
-    run(["gmx_d", "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off"], work)
+    run(["gmx_d", "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off", "-notunepme"], work)
     e = gmx_energy("gmx_d", "gmx_nve.edr", ["Total-Energy"], work)
     gmx = analyse(e["time"], e["Total Energy"], atoms)
 
