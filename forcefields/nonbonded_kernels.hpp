@@ -1,10 +1,11 @@
 #pragma once
 // The nonbonded pair kernels behind NonbondedPairTerm, compiled for every SIMD target Highway
 // supports on x86 (SSE4, AVX2, AVX-512, and a portable fallback) and chosen at run time for the
-// CPU the program runs on (nonbonded_kernels.cpp). Nothing here depends on the target: the view
+// CPU the program runs on (nonbonded_kernels-inl.h). Nothing here depends on the target: the view
 // is plain arrays, the kernels are plain function pointers.
 #include <cstddef>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -87,6 +88,14 @@ std::vector<std::string> available_targets();
 // Restricts the kernels to one of available_targets() (tests, benchmarks, `--simd`); an empty name
 // restores the automatic choice. Throws InputError for a target that is not available.
 void use_target(const std::string& name);
+
+// The kernel dispatch found, which is null only for constants no configuration makes (no vdw form,
+// or several forms of a slot).
+template <class Kernel>
+Kernel checked_kernel(Kernel kernel) {
+  if (!kernel) throw std::logic_error("no pair kernel for this combination of pair forms");
+  return kernel;
+}
 
 }  // namespace simd
 }  // namespace vimd

@@ -1,6 +1,6 @@
 #pragma once
 // What a nonbonded pair form is (Lennard-Jones, reaction field, ...): the contract between a form
-// and the one pair loop (nonbonded_kernels.cpp, nonbonded_pair_term.cpp), which knows no form by
+// and the one pair loop (nonbonded_kernels-inl.h, nonbonded_pair_term.cpp), which knows no form by
 // name. The forms are listed in pair_forms.hpp; docs/adding-a-force-term.md is the recipe.
 //
 // A form is a family of variants (its modifiers), in two parts:
@@ -30,7 +30,7 @@ constexpr int kPairEnergies = 2;
 //     what the excluded pairs inside the cut-off still feel;
 //   const SwitchFunction& potential_switch() const, bool potential_switched() const and
 //     static constexpr auto kUnswitched (the variant without the switch): the form can share
-//     one evaluation of the switch with another switched form (SharedSwitch in nonbonded_kernels.cpp).
+//     one evaluation of the switch with another switched form (SharedSwitch in nonbonded_kernels-inl.h).
 template <class C>
 concept FormConstants = requires(const C& c, const ForceFieldConfig& config, double cutoff) {
   { C::from_config(config) } -> std::same_as<C>;

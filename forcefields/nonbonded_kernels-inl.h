@@ -1,10 +1,15 @@
-// The pair loops over the cluster-pair list, once per SIMD target (Highway's foreach_target
-// re-includes this file for each), dispatched at run time. A j-cluster (8 atoms) is processed as
-// 8 / lanes vectors of the target's native width; the i-half's force sums stay in registers over
-// the whole half, and each j sub-cluster is updated once per list entry.
-#undef HWY_TARGET_INCLUDE
-#define HWY_TARGET_INCLUDE "forcefields/nonbonded_kernels.cpp"
-#include "hwy/foreach_target.h"  // IWYU pragma: keep
+// The pair loops over the cluster-pair list, for the SIMD target being compiled: the kernels of
+// every combination of the pair forms of pair_forms.hpp, as templates on the precision. Included by
+// nonbonded_kernels_double.cpp and nonbonded_kernels_single.cpp, one per precision (two translation
+// units that compile in parallel). A j-cluster (8 atoms) is processed as 8 / lanes vectors of the
+// target's native width; the i-half's force sums stay in registers over the whole half, and each j
+// sub-cluster is updated once per list entry. A Highway per-target header: see engine/simd-inl.h.
+#if defined(VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_
+#undef VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_
+#else
+#define VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_
+#endif
 
 #include <cstddef>
 #include <tuple>
@@ -499,100 +504,8 @@ HessianKernelOf<Real> hessian_kernel_among(const PairFormConstants& forms, TypeL
 
 }  // namespace
 
-// Entry points of this target, for HWY_DYNAMIC_DISPATCH.
-ForceKernel ForceKernelFor(const PairFormConstants& forms, bool energies) {
-  return force_kernel_for<double>(forms, energies);
-}
-SingleForceKernel SingleForceKernelFor(const PairFormConstants& forms, bool energies) {
-  return force_kernel_for<float>(forms, energies);
-}
-HessianKernel HessianKernelFor(const PairFormConstants& forms) {
-  return hessian_kernel_among<double>(forms, Combinations{});
-}
-SingleHessianKernel SingleHessianKernelFor(const PairFormConstants& forms) {
-  return hessian_kernel_among<float>(forms, Combinations{});
-}
-MaskKernel MaskKernelFor() { return mask_halves<double>; }
-SingleMaskKernel SingleMaskKernelFor() { return mask_halves<float>; }
-std::int64_t Target() { return HWY_TARGET; }
-int Lanes() { return SimdDouble::lanes(); }
-
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd
 HWY_AFTER_NAMESPACE();
 
-#if HWY_ONCE
-#include <stdexcept>
-
-#include "engine/errors.hpp"
-
-namespace vimd {
-
-HWY_EXPORT(ForceKernelFor);
-HWY_EXPORT(SingleForceKernelFor);
-HWY_EXPORT(HessianKernelFor);
-HWY_EXPORT(SingleHessianKernelFor);
-HWY_EXPORT(MaskKernelFor);
-HWY_EXPORT(SingleMaskKernelFor);
-HWY_EXPORT(Target);
-HWY_EXPORT(Lanes);
-
-namespace simd {
-
-namespace {
-// Null only for constants no configuration makes (no vdw form, or several forms of a slot).
-template <class Kernel>
-Kernel checked(Kernel kernel) {
-  if (!kernel) throw std::logic_error("no pair kernel for this combination of pair forms");
-  return kernel;
-}
-}  // namespace
-
-ForceKernel force_kernel(const PairFormConstants& forms, bool energies) {
-  return checked(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(forms, energies));
-}
-
-SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies) {
-  return checked(HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(forms, energies));
-}
-
-HessianKernel hessian_kernel(const PairFormConstants& forms) {
-  return checked(HWY_DYNAMIC_DISPATCH(HessianKernelFor)(forms));
-}
-
-SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms) {
-  return checked(HWY_DYNAMIC_DISPATCH(SingleHessianKernelFor)(forms));
-}
-
-MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
-SingleMaskKernel single_mask_kernel() { return HWY_DYNAMIC_DISPATCH(SingleMaskKernelFor)(); }
-
-std::string target_name() { return hwy::TargetName(HWY_DYNAMIC_DISPATCH(Target)()); }
-int lanes() { return HWY_DYNAMIC_DISPATCH(Lanes)(); }
-
-std::vector<std::string> available_targets() {
-  std::vector<std::string> names;
-  // SupportedAndGeneratedTargets lists the lowest bit first; on x86 a lower bit is a better target.
-  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) names.emplace_back(hwy::TargetName(target));
-  return names;
-}
-
-void use_target(const std::string& name) {
-  hwy::SetSupportedTargetsForTest(0);
-  if (!name.empty()) {
-    std::int64_t chosen = 0;
-    std::string known;
-    for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
-      if (name == hwy::TargetName(target)) chosen = target;
-      known += std::string(known.empty() ? "" : ", ") + hwy::TargetName(target);
-    }
-    if (chosen == 0)
-      throw InputError("--simd", 0, "SIMD target '" + name + "' is not available on this CPU (available: " + known + ")");
-    hwy::SetSupportedTargetsForTest(chosen);
-  }
-  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
-}
-
-}  // namespace simd
-}  // namespace vimd
-#endif  // HWY_ONCE
+#endif  // VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_

@@ -1,0 +1,48 @@
+// The single-precision pair kernels of every SIMD target (Highway's foreach_target re-includes
+// this file for each), dispatched at run time.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "forcefields/nonbonded_kernels_single.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+
+#include "forcefields/nonbonded_kernels-inl.h"
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace vimd {
+namespace HWY_NAMESPACE {
+
+// Entry points of this target, for HWY_DYNAMIC_DISPATCH.
+SingleForceKernel SingleForceKernelFor(const PairFormConstants& forms, bool energies) {
+  return force_kernel_for<float>(forms, energies);
+}
+SingleHessianKernel SingleHessianKernelFor(const PairFormConstants& forms) {
+  return hessian_kernel_among<float>(forms, Combinations{});
+}
+SingleMaskKernel SingleMaskKernelFor() { return mask_halves<float>; }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace vimd
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace vimd {
+
+HWY_EXPORT(SingleForceKernelFor);
+HWY_EXPORT(SingleHessianKernelFor);
+HWY_EXPORT(SingleMaskKernelFor);
+
+namespace simd {
+
+SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies) {
+  return checked_kernel(HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(forms, energies));
+}
+
+SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms) {
+  return checked_kernel(HWY_DYNAMIC_DISPATCH(SingleHessianKernelFor)(forms));
+}
+
+SingleMaskKernel single_mask_kernel() { return HWY_DYNAMIC_DISPATCH(SingleMaskKernelFor)(); }
+
+}  // namespace simd
+}  // namespace vimd
+#endif  // HWY_ONCE
