@@ -1,0 +1,404 @@
+#include "forcefields/ewald_mesh.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "forcefields/bspline.hpp"
+#include "forcefields/fft_grid.hpp"
+
+namespace vimd {
+
+namespace {
+
+// |Σ_{j=1}^{p−1} M_p(j) e^{2πi k j/n}|² for k = 0..n−1: the B(k) of the influence function, as
+// GROMACS computes it (make_bspline_moduli). For odd p and even n it vanishes at k = n/2; GROMACS
+// then takes the mean of its neighbours there (Essmann et al.: that term's weight is negligible).
+std::vector<double> bspline_moduli(int n, int p) {
+  const auto m = spline_at_integers(p);
+  std::vector<double> b(n);
+  for (int k = 0; k < n; ++k) {
+    double c = 0, s = 0;
+    for (int j = 1; j < p; ++j) {
+      const double arg = 2 * M_PI * k * j / n;
+      c += m[j - 1] * std::cos(arg);
+      s += m[j - 1] * std::sin(arg);
+    }
+    b[k] = c * c + s * s;
+  }
+  if (p % 2 == 1 && n % 2 == 0) b[n / 2] = 0.5 * (b[n / 2 - 1] + b[n / 2 + 1]);
+  return b;
+}
+
+}  // namespace
+
+struct EwaldMeshSetup {
+  std::array<int, 3> n;
+  int order;
+  int row;          // real-grid row length nz + p − 1: a charge's p points in z never wrap
+  Vec3 scale;       // n/L: d(grid coordinate)/dx, nm⁻¹
+  std::vector<double> charge;
+  double net_charge_energy;
+  // On the half-complex grid (x, y, kz ≤ nz/2): f/ε_r exp(−π²m²/β²) / (π V m² B(m)), 0 at m = 0,
+  // and the energy weight of each kz (1 for kz = 0 and nz/2, which the half grid holds once; 2
+  // for the others, which stand for ±kz).
+  std::vector<double> influence;
+  std::vector<double> energy_weight;
+
+  EwaldMeshSetup(const System& system, const EwaldMeshParameters& p)
+      : n(p.grid), order(p.order), row(p.grid[2] + p.order - 1), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
+    if (!system.box.periodic())
+      throw std::invalid_argument("the Ewald mesh (PME) needs a box periodic in x, y and z");
+    if (p.order < 3 || p.order > kMaxSplineOrder)
+      throw std::invalid_argument("PME order " + std::to_string(p.order) + " is outside 3.." + std::to_string(kMaxSplineOrder));
+    for (int d = 0; d < 3; ++d)
+      if (n[d] < p.order)
+        throw std::invalid_argument("PME grid of " + std::to_string(n[d]) + " points is smaller than the order " +
+                                    std::to_string(p.order));
+    if (!(p.beta > 0)) throw std::invalid_argument("the Ewald coefficient beta must be positive");
+    const Vec3& length = system.box.length;
+    const double volume = system.box.volume();
+    for (int d = 0; d < 3; ++d) scale[d] = n[d] / length[d];
+    double total = 0;
+    for (double q : charge) total += q;
+    net_charge_energy = -M_PI * p.prefactor * total * total / (2 * volume * p.beta * p.beta);
+
+    std::array<std::vector<double>, 3> moduli;
+    for (int d = 0; d < 3; ++d) moduli[d] = bspline_moduli(n[d], p.order);
+    const int nzc = n[2] / 2 + 1;
+    influence.resize(std::size_t(n[0]) * n[1] * nzc);
+    const double factor = M_PI * M_PI / (p.beta * p.beta);
+    auto wave = [&](int k, int d) { return (k < (n[d] + 1) / 2 ? k : k - n[d]) / length[d]; };
+    for (int x = 0; x < n[0]; ++x)
+      for (int y = 0; y < n[1]; ++y)
+        for (int z = 0; z < nzc; ++z) {
+          const double mx = wave(x, 0), my = wave(y, 1), mz = z / length[2];
+          const double m2 = mx * mx + my * my + mz * mz;
+          const std::size_t i = (std::size_t(x) * n[1] + y) * nzc + z;
+          influence[i] = m2 == 0 ? 0.0
+                                 : p.prefactor * std::exp(-factor * m2) /
+                                       (M_PI * volume * m2 * moduli[0][x] * moduli[1][y] * moduli[2][z]);
+        }
+    energy_weight.assign(nzc, 2.0);
+    energy_weight[0] = 1;
+    if (n[2] % 2 == 0) energy_weight[nzc - 1] = 1;
+  }
+};
+
+// One precision's mesh: spline weights of the last positions, per-thread spreading grids, and two
+// transform grids (the charges' and, for Hessian–vector products, their directional derivative's).
+template <class Real>
+class EwaldMesh {
+ public:
+  explicit EwaldMesh(std::shared_ptr<const EwaldMeshSetup> setup)
+      : s_(std::move(setup)),
+        n_atoms_(static_cast<int>(s_->charge.size())),
+        p_(s_->order),
+        influence_(s_->influence.begin(), s_->influence.end()),
+        weight_(s_->energy_weight.begin(), s_->energy_weight.end()),
+        grid_{FftGrid<Real>(s_->n, s_->row), FftGrid<Real>(s_->n, s_->row)},
+        threaded_(double(n_atoms_) * p_ * p_ * p_ + double(s_->n[0]) * s_->n[1] * s_->n[2] >= kParallelWork) {
+    for (int d = 0; d < 3; ++d) {
+      cell_[d].resize(n_atoms_);
+      for (auto* w : {&value_[d], &first_[d], &second_[d]}) w->resize(std::size_t(n_atoms_) * p_);
+    }
+    for (int d = 0; d < 2; ++d)
+      for (int i = 0; i < s_->n[d] + p_; ++i) wrap_[d].push_back(i % s_->n[d]);
+  }
+
+  // Adds −∇E to f; returns the mesh energy when asked (else 0).
+  double add_forces(const Coords& q, Coords& f, bool energy) {
+    splines(q, false);
+    spread(grid_[0], nullptr);
+    const double e = convolve(grid_[0], energy);
+    phi_at_ = q;
+    phi_ready_ = true;
+    gather_forces(f);
+    return e;
+  }
+
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+    // A Hessian–vector product at the positions of the last force pass (the integrators' usual
+    // pattern) takes its potential grid: the same arithmetic, so the same result.
+    const bool reuse = phi_ready_ && phi_at_.cols() == q.cols() && phi_at_ == q;
+    splines(q, true);
+    if (!reuse) {
+      spread(grid_[0], nullptr);
+      convolve(grid_[0], false);
+      phi_at_ = q;
+      phi_ready_ = true;
+    }
+    spread(grid_[1], &u);
+    convolve(grid_[1], false);
+    gather_hessian(u, out);
+  }
+
+ private:
+  // Each atom's cell and spline weights in x, y, z at q (wrapped into the box).
+  void splines(const Coords& q, bool second) {
+    const std::array<int, 3>& n = s_->n;
+    const Vec3 scale = s_->scale;
+#pragma omp parallel for schedule(static) if (threaded_)
+    for (int i = 0; i < n_atoms_; ++i) {
+      SplineWeights<Real> w;
+      for (int d = 0; d < 3; ++d) {
+        double u = q(d, i) * scale[d];  // grid coordinate
+        u -= n[d] * std::floor(u / n[d]);
+        int c = static_cast<int>(u);
+        const Real frac = static_cast<Real>(u - c);
+        if (c >= n[d]) c -= n[d];  // u rounded up to n
+        cell_[d][i] = c;
+        spline_weights(frac, p_, second, w);
+        const std::size_t at = std::size_t(i) * p_;
+        for (int k = 0; k < p_; ++k) {
+          value_[d][at + k] = w.value[k];
+          first_[d][at + k] = w.first[k];
+          if (second) second_[d][at + k] = w.second[k];
+        }
+      }
+    }
+  }
+
+  // The charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on the grid.
+  void spread(FftGrid<Real>& grid, const Coords* u) {
+    const int threads = omp_get_max_threads();
+    const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
+    if (static_cast<int>(spread_.size()) != threads) spread_.assign(threads, std::vector<Real>(size));
+    const int p = p_, nz = s_->n[2], row = s_->row;
+#pragma omp parallel num_threads(threads) if (threaded_)
+    {
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      Real* g = spread_[t].data();
+      std::fill(g, g + size, Real(0));
+      const int begin = int(long(n_atoms_) * t / nt), end = int(long(n_atoms_) * (t + 1) / nt);
+      for (int i = begin; i < end; ++i) {
+        if (s_->charge[i] == 0) continue;
+        if (u)
+          spread_directional(g, i, (*u).col(i));
+        else
+          spread_charge(g, i);
+      }
+#pragma omp barrier
+      // Fold each row's wrap-around back and sum the threads' grids in thread order.
+      Real* out = grid.real();
+      const int rows = s_->n[0] * s_->n[1];
+#pragma omp for schedule(static)
+      for (int r = 0; r < rows; ++r) {
+        Real* o = out + std::size_t(r) * row;
+        for (int z = 0; z < nz; ++z) o[z] = 0;
+        for (int k = 0; k < nt; ++k) {
+          const Real* in = spread_[k].data() + std::size_t(r) * row;
+          for (int z = 0; z < nz; ++z) o[z] += in[z];
+          for (int z = 0; z < p - 1; ++z) o[z] += in[nz + z];
+        }
+      }
+    }
+  }
+
+  const Real* weights(const std::array<std::vector<Real>, 3>& w, int d, int i) const { return w[d].data() + std::size_t(i) * p_; }
+
+  void spread_charge(Real* g, int i) const {
+    const Real q = static_cast<Real>(s_->charge[i]);
+    const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
+    const int* wx = wrap_[0].data() + cell_[0][i];
+    const int* wy = wrap_[1].data() + cell_[1][i];
+    const int z0 = cell_[2][i], ny = s_->n[1], row = s_->row, p = p_;
+    for (int a = 0; a < p; ++a) {
+      const Real va = q * tx[a];
+      for (int b = 0; b < p; ++b) {
+        Real* line = g + (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
+        const Real vab = va * ty[b];
+        for (int c = 0; c < p; ++c) line[c] += vab * tz[c];
+      }
+    }
+  }
+
+  // q_i (u_x s_x θ'_x θ_y θ_z + u_y s_y θ_x θ'_y θ_z + u_z s_z θ_x θ_y θ'_z), s = n/L.
+  void spread_directional(Real* g, int i, const Vec3& u) const {
+    const double q = s_->charge[i];
+    const Real ux = static_cast<Real>(q * u[0] * s_->scale[0]), uy = static_cast<Real>(q * u[1] * s_->scale[1]),
+               uz = static_cast<Real>(q * u[2] * s_->scale[2]);
+    const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
+    const Real *dx = weights(first_, 0, i), *dy = weights(first_, 1, i), *dz = weights(first_, 2, i);
+    const int* wx = wrap_[0].data() + cell_[0][i];
+    const int* wy = wrap_[1].data() + cell_[1][i];
+    const int z0 = cell_[2][i], ny = s_->n[1], row = s_->row, p = p_;
+    for (int a = 0; a < p; ++a) {
+      const Real da = ux * dx[a], yb = uy * tx[a], zb = uz * tx[a];
+      for (int b = 0; b < p; ++b) {
+        Real* line = g + (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
+        const Real on_value = da * ty[b] + yb * dy[b], on_first = zb * ty[b];
+        for (int c = 0; c < p; ++c) line[c] += on_value * tz[c] + on_first * dz[c];
+      }
+    }
+  }
+
+  // Transforms the spread grid, multiplies by the influence function (summing the energy
+  // ½ Σ_m G(m)|S(m)|² when asked) and transforms back: the grid then holds G ⊛ grid, with each
+  // row's first p − 1 points repeated after its end for the gathers.
+  double convolve(FftGrid<Real>& grid, bool energy) {
+    grid.forward();
+    const int threads = omp_get_max_threads(), nzc = grid.complex_row(), rows = s_->n[0] * s_->n[1];
+    partial_.assign(threads, 0.0);
+    auto* c = grid.complex();
+#pragma omp parallel num_threads(threads) if (threaded_)
+    {
+      double e = 0;
+#pragma omp for schedule(static)
+      for (int r = 0; r < rows; ++r) {
+        const std::size_t at = std::size_t(r) * nzc;
+        for (int z = 0; z < nzc; ++z) {
+          const Real g = influence_[at + z];
+          if (energy) e += double(weight_[z] * g * std::norm(c[at + z]));
+          c[at + z] *= g;
+        }
+      }
+      partial_[omp_get_thread_num()] = e;
+    }
+    grid.backward();
+    Real* real = grid.real();
+    const int nz = s_->n[2], row = s_->row, p = p_;
+#pragma omp parallel for schedule(static) if (threaded_)
+    for (int r = 0; r < rows; ++r)
+      for (int z = 0; z < p - 1; ++z) real[std::size_t(r) * row + nz + z] = real[std::size_t(r) * row + z];
+    double sum = 0;
+    for (double e : partial_) sum += e;
+    return 0.5 * sum;
+  }
+
+  // F_i = −q_i Σ_g ∇θ_i(g) φ(g), φ = G ⊛ Q in grid_[0].
+  void gather_forces(Coords& f) const {
+    const Real* phi = grid_[0].real();
+    const int ny = s_->n[1], row = s_->row, p = p_;
+    const Vec3 scale = s_->scale;
+#pragma omp parallel for schedule(static) if (threaded_)
+    for (int i = 0; i < n_atoms_; ++i) {
+      if (s_->charge[i] == 0) continue;
+      const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
+      const Real *dx = weights(first_, 0, i), *dy = weights(first_, 1, i), *dz = weights(first_, 2, i);
+      const int* wx = wrap_[0].data() + cell_[0][i];
+      const int* wy = wrap_[1].data() + cell_[1][i];
+      const int z0 = cell_[2][i];
+      Real fx = 0, fy = 0, fz = 0;
+      for (int a = 0; a < p; ++a)
+        for (int b = 0; b < p; ++b) {
+          const Real* line = phi + (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
+          Real s0 = 0, s1 = 0;
+          for (int c = 0; c < p; ++c) {
+            s0 += tz[c] * line[c];
+            s1 += dz[c] * line[c];
+          }
+          fx += dx[a] * ty[b] * s0;
+          fy += tx[a] * dy[b] * s0;
+          fz += tx[a] * ty[b] * s1;
+        }
+      const double q = s_->charge[i];
+      f(0, i) -= q * scale[0] * fx;
+      f(1, i) -= q * scale[1] * fy;
+      f(2, i) -= q * scale[2] * fz;
+    }
+  }
+
+  // (H u)_i = q_i Σ_g (∇∇θ_i(g) u_i) φ(g) + q_i Σ_g ∇θ_i(g) ψ(g), ψ = G ⊛ dQ in grid_[1].
+  void gather_hessian(const Coords& u, Coords& out) const {
+    const Real *phi = grid_[0].real(), *psi = grid_[1].real();
+    const int ny = s_->n[1], row = s_->row, p = p_;
+    const Vec3 scale = s_->scale;
+#pragma omp parallel for schedule(static) if (threaded_)
+    for (int i = 0; i < n_atoms_; ++i) {
+      if (s_->charge[i] == 0) continue;
+      const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
+      const Real *dx = weights(first_, 0, i), *dy = weights(first_, 1, i), *dz = weights(first_, 2, i);
+      const Real *ddx = weights(second_, 0, i), *ddy = weights(second_, 1, i), *ddz = weights(second_, 2, i);
+      const int* wx = wrap_[0].data() + cell_[0][i];
+      const int* wy = wrap_[1].data() + cell_[1][i];
+      const int z0 = cell_[2][i];
+      Real hxx = 0, hyy = 0, hzz = 0, hxy = 0, hxz = 0, hyz = 0, gx = 0, gy = 0, gz = 0;
+      for (int a = 0; a < p; ++a)
+        for (int b = 0; b < p; ++b) {
+          const std::size_t at = (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
+          const Real *lp = phi + at, *ls = psi + at;
+          Real p0 = 0, p1 = 0, p2 = 0, s0 = 0, s1 = 0;
+          for (int c = 0; c < p; ++c) {
+            p0 += tz[c] * lp[c];
+            p1 += dz[c] * lp[c];
+            p2 += ddz[c] * lp[c];
+            s0 += tz[c] * ls[c];
+            s1 += dz[c] * ls[c];
+          }
+          hxx += ddx[a] * ty[b] * p0;
+          hyy += tx[a] * ddy[b] * p0;
+          hzz += tx[a] * ty[b] * p2;
+          hxy += dx[a] * dy[b] * p0;
+          hxz += dx[a] * ty[b] * p1;
+          hyz += tx[a] * dy[b] * p1;
+          gx += dx[a] * ty[b] * s0;
+          gy += tx[a] * dy[b] * s0;
+          gz += tx[a] * ty[b] * s1;
+        }
+      // Grid derivatives to Cartesian ones: each derivative in x_d brings a factor s_d = n_d/L_d.
+      const double sx = scale[0], sy = scale[1], sz = scale[2], q = s_->charge[i];
+      const double vx = sx * u(0, i), vy = sy * u(1, i), vz = sz * u(2, i);
+      out(0, i) += q * sx * (hxx * vx + hxy * vy + hxz * vz + gx);
+      out(1, i) += q * sy * (hxy * vx + hyy * vy + hyz * vz + gy);
+      out(2, i) += q * sz * (hxz * vx + hyz * vy + hzz * vz + gz);
+    }
+  }
+
+  std::shared_ptr<const EwaldMeshSetup> s_;
+  int n_atoms_, p_;
+  std::vector<Real> influence_, weight_;
+  std::array<std::vector<int>, 3> cell_;
+  std::array<std::vector<Real>, 3> value_, first_, second_;  // per dimension, p per atom
+  std::array<std::vector<int>, 2> wrap_;                     // i mod n for x and y, i < n + p
+  std::vector<std::vector<Real>> spread_;                    // per thread
+  std::vector<double> partial_;                              // per thread
+  FftGrid<Real> grid_[2];
+  // Threads only where there is work enough to pay for starting them.
+  static constexpr double kParallelWork = 16384;
+  bool threaded_;
+  Coords phi_at_;
+  bool phi_ready_ = false;
+};
+
+EwaldMeshTerm::EwaldMeshTerm(const System& system, const EwaldMeshParameters& p, bool mixed_precision)
+    : setup_(std::make_shared<EwaldMeshSetup>(system, p)), mixed_(mixed_precision) {}
+
+EwaldMeshTerm::~EwaldMeshTerm() = default;
+
+double EwaldMeshTerm::net_charge_energy() const { return setup_->net_charge_energy; }
+
+namespace {
+
+template <class Real>
+EwaldMesh<Real>& made(std::unique_ptr<EwaldMesh<Real>>& mesh, const std::shared_ptr<const EwaldMeshSetup>& setup) {
+  if (!mesh) mesh = std::make_unique<EwaldMesh<Real>>(setup);
+  return *mesh;
+}
+
+}  // namespace
+
+void EwaldMeshTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how) {
+  const bool energy = !energies.empty();
+  const double e = mixed_ || how.single_precision ? made(single_, setup_).add_forces(q, f, energy)
+                                                  : made(double_, setup_).add_forces(q, f, energy);
+  if (energy) energies[0] += e + setup_->net_charge_energy;
+}
+
+void EwaldMeshTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how) {
+  if (mixed_ || how.single_precision)
+    made(single_, setup_).add_hessian_vector(q, u, out);
+  else
+    made(double_, setup_).add_hessian_vector(q, u, out);
+}
+
+void EwaldMeshTerm::add_single_point(const Coords& q, Coords& f, std::span<double> energies) const {
+  const bool energy = !energies.empty();
+  // A mesh of its own: the term's grids and cached potential stay as they were.
+  const double e = mixed_ ? EwaldMesh<float>(setup_).add_forces(q, f, energy)
+                          : EwaldMesh<double>(setup_).add_forces(q, f, energy);
+  if (energy) energies[0] += e + setup_->net_charge_energy;
+}
+
+}  // namespace vimd
