@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "forcefields/bspline.hpp"
 #include "forcefields/fft_grid.hpp"
@@ -86,15 +87,26 @@ struct EwaldMeshSetup {
   }
 };
 
-// One precision's mesh: spline weights of the last positions, per-thread spreading grids, and two
-// transform grids (the charges' and, for Hessian–vector products, their directional derivative's).
-template <class Real>
 class EwaldMesh {
  public:
-  explicit EwaldMesh(std::shared_ptr<const EwaldMeshSetup> setup)
+  virtual ~EwaldMesh() = default;
+  // Adds −∇E to f; returns the mesh energy when asked (else 0).
+  virtual double add_forces(const Coords& q, Coords& f, bool energy) = 0;
+  virtual void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) = 0;
+};
+
+namespace {
+
+// One precision's and order's mesh (the order fixed at compile time, so that the loops over a
+// charge's P³ grid points have known lengths): spline weights of the last positions, per-thread
+// spreading grids, and two transform grids (the charges' and, for Hessian–vector products, their
+// directional derivative's).
+template <class Real, int P>
+class OrderMesh final : public EwaldMesh {
+ public:
+  explicit OrderMesh(std::shared_ptr<const EwaldMeshSetup> setup)
       : s_(std::move(setup)),
         n_atoms_(static_cast<int>(s_->charge.size())),
-        p_(s_->order),
         influence_(s_->influence.begin(), s_->influence.end()),
         weight_(s_->energy_weight.begin(), s_->energy_weight.end()),
         grid_{FftGrid<Real>(s_->n, s_->row), FftGrid<Real>(s_->n, s_->row)},
@@ -107,8 +119,7 @@ class EwaldMesh {
       for (int i = 0; i < s_->n[d] + p_; ++i) wrap_[d].push_back(i % s_->n[d]);
   }
 
-  // Adds −∇E to f; returns the mesh energy when asked (else 0).
-  double add_forces(const Coords& q, Coords& f, bool energy) {
+  double add_forces(const Coords& q, Coords& f, bool energy) override {
     splines(q, false);
     spread(grid_[0], nullptr);
     const double e = convolve(grid_[0], energy);
@@ -118,7 +129,7 @@ class EwaldMesh {
     return e;
   }
 
-  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) {
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override {
     // A Hessian–vector product at the positions of the last force pass (the integrators' usual
     // pattern) takes its potential grid: the same arithmetic, so the same result.
     const bool reuse = phi_ready_ && phi_at_.cols() == q.cols() && phi_at_ == q;
@@ -347,7 +358,8 @@ class EwaldMesh {
   }
 
   std::shared_ptr<const EwaldMeshSetup> s_;
-  int n_atoms_, p_;
+  static constexpr int p_ = P;
+  int n_atoms_;
   std::vector<Real> influence_, weight_;
   std::array<std::vector<int>, 3> cell_;
   std::array<std::vector<Real>, 3> value_, first_, second_;  // per dimension, p per atom
@@ -362,6 +374,25 @@ class EwaldMesh {
   bool phi_ready_ = false;
 };
 
+template <class Real, int... P>
+std::unique_ptr<EwaldMesh> make_mesh(std::shared_ptr<const EwaldMeshSetup> setup, std::integer_sequence<int, P...>) {
+  std::unique_ptr<EwaldMesh> mesh;
+  ((setup->order == P + 3 ? (mesh = std::make_unique<OrderMesh<Real, P + 3>>(setup), 0) : 0), ...);
+  return mesh;
+}
+
+template <class Real>
+std::unique_ptr<EwaldMesh> make_mesh(std::shared_ptr<const EwaldMeshSetup> setup) {
+  return make_mesh<Real>(std::move(setup), std::make_integer_sequence<int, kMaxSplineOrder - 2>());
+}
+
+EwaldMesh& made(std::unique_ptr<EwaldMesh>& mesh, bool single, const std::shared_ptr<const EwaldMeshSetup>& setup) {
+  if (!mesh) mesh = single ? make_mesh<float>(setup) : make_mesh<double>(setup);
+  return *mesh;
+}
+
+}  // namespace
+
 EwaldMeshTerm::EwaldMeshTerm(const System& system, const EwaldMeshParameters& p, bool mixed_precision)
     : setup_(std::make_shared<EwaldMeshSetup>(system, p)), mixed_(mixed_precision) {}
 
@@ -369,36 +400,22 @@ EwaldMeshTerm::~EwaldMeshTerm() = default;
 
 double EwaldMeshTerm::net_charge_energy() const { return setup_->net_charge_energy; }
 
-namespace {
-
-template <class Real>
-EwaldMesh<Real>& made(std::unique_ptr<EwaldMesh<Real>>& mesh, const std::shared_ptr<const EwaldMeshSetup>& setup) {
-  if (!mesh) mesh = std::make_unique<EwaldMesh<Real>>(setup);
-  return *mesh;
-}
-
-}  // namespace
-
 void EwaldMeshTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how) {
-  const bool energy = !energies.empty();
-  const double e = mixed_ || how.single_precision ? made(single_, setup_).add_forces(q, f, energy)
-                                                  : made(double_, setup_).add_forces(q, f, energy);
-  if (energy) energies[0] += e + setup_->net_charge_energy;
+  const bool single = mixed_ || how.single_precision;
+  const double e = made(single ? single_ : double_, single, setup_).add_forces(q, f, !energies.empty());
+  if (!energies.empty()) energies[0] += e + setup_->net_charge_energy;
 }
 
 void EwaldMeshTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how) {
-  if (mixed_ || how.single_precision)
-    made(single_, setup_).add_hessian_vector(q, u, out);
-  else
-    made(double_, setup_).add_hessian_vector(q, u, out);
+  const bool single = mixed_ || how.single_precision;
+  made(single ? single_ : double_, single, setup_).add_hessian_vector(q, u, out);
 }
 
 void EwaldMeshTerm::add_single_point(const Coords& q, Coords& f, std::span<double> energies) const {
-  const bool energy = !energies.empty();
   // A mesh of its own: the term's grids and cached potential stay as they were.
-  const double e = mixed_ ? EwaldMesh<float>(setup_).add_forces(q, f, energy)
-                          : EwaldMesh<double>(setup_).add_forces(q, f, energy);
-  if (energy) energies[0] += e + setup_->net_charge_energy;
+  const auto mesh = mixed_ ? make_mesh<float>(setup_) : make_mesh<double>(setup_);
+  const double e = mesh->add_forces(q, f, !energies.empty());
+  if (!energies.empty()) energies[0] += e + setup_->net_charge_energy;
 }
 
 }  // namespace vimd

@@ -34,7 +34,7 @@ struct EwaldMeshParameters {
 
 // What every mesh of one term shares: grid, order, box, charges and the influence function.
 struct EwaldMeshSetup;
-template <class Real>
+// One precision's grids and transforms.
 class EwaldMesh;
 
 class EwaldMeshTerm : public ForceTerm {
@@ -55,8 +55,7 @@ class EwaldMeshTerm : public ForceTerm {
   std::shared_ptr<const EwaldMeshSetup> setup_;
   bool mixed_;
   // Made at first use.
-  std::unique_ptr<EwaldMesh<double>> double_;
-  std::unique_ptr<EwaldMesh<float>> single_;
+  std::unique_ptr<EwaldMesh> double_, single_;
 };
 
 }  // namespace vimd
