@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "forcefields/bspline.hpp"
+#include "forcefields/ewald_mesh_kernels.hpp"
 #include "forcefields/fft_grid.hpp"
 
 namespace vimd {
@@ -37,7 +38,7 @@ std::vector<double> bspline_moduli(int n, int p) {
 struct EwaldMeshSetup {
   std::array<int, 3> n;
   int order;
-  int row;          // real-grid row length nz + p − 1: a charge's p points in z never wrap
+  int row;          // real-grid row length: a charge's z points (vectors of them) never wrap
   Vec3 scale;       // n/L: d(grid coordinate)/dx, nm⁻¹
   std::vector<double> charge;
   double net_charge_energy;
@@ -48,7 +49,7 @@ struct EwaldMeshSetup {
   std::vector<double> energy_weight;
 
   EwaldMeshSetup(const System& system, const EwaldMeshParameters& p)
-      : n(p.grid), order(p.order), row(p.grid[2] + p.order - 1), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
+      : n(p.grid), order(p.order), row(p.grid[2] + spline_stride(p.order) - 1), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
     if (!system.box.periodic())
       throw std::invalid_argument("the Ewald mesh (PME) needs a box periodic in x, y and z");
     if (p.order < 3 || p.order > kMaxSplineOrder)
@@ -97,26 +98,47 @@ class EwaldMesh {
 
 namespace {
 
-// One precision's and order's mesh (the order fixed at compile time, so that the loops over a
-// charge's P³ grid points have known lengths): spline weights of the last positions, per-thread
-// spreading grids, and two transform grids (the charges' and, for Hessian–vector products, their
-// directional derivative's).
-template <class Real, int P>
-class OrderMesh final : public EwaldMesh {
+template <class Real>
+MeshKernels<Real> kernels_of(int p);
+template <>
+MeshKernels<double> kernels_of<double>(int p) {
+  return mesh_kernels(p);
+}
+template <>
+MeshKernels<float> kernels_of<float>(int p) {
+  return single_mesh_kernels(p);
+}
+
+// One precision's mesh: spline weights of the last positions, per-thread spreading grids, and two
+// transform grids (the charges' and, for Hessian–vector products, their directional derivative's).
+template <class Real>
+class PrecisionMesh final : public EwaldMesh {
  public:
-  explicit OrderMesh(std::shared_ptr<const EwaldMeshSetup> setup)
+  explicit PrecisionMesh(std::shared_ptr<const EwaldMeshSetup> setup)
       : s_(std::move(setup)),
         n_atoms_(static_cast<int>(s_->charge.size())),
+        kernels_(kernels_of<Real>(s_->order)),
         influence_(s_->influence.begin(), s_->influence.end()),
         weight_(s_->energy_weight.begin(), s_->energy_weight.end()),
-        grid_{FftGrid<Real>(s_->n, s_->row), FftGrid<Real>(s_->n, s_->row)},
-        threaded_(double(n_atoms_) * p_ * p_ * p_ + double(s_->n[0]) * s_->n[1] * s_->n[2] >= kParallelWork) {
-    for (int d = 0; d < 3; ++d) {
-      cell_[d].resize(n_atoms_);
-      for (auto* w : {&value_[d], &first_[d], &second_[d]}) w->resize(std::size_t(n_atoms_) * p_);
-    }
+        grid_{FftGrid<Real>(s_->n, s_->row), FftGrid<Real>(s_->n, s_->row)} {
+    const int p = s_->order, stride = spline_stride(p);
+    threaded_ = double(n_atoms_) * p * p * p + double(s_->n[0]) * s_->n[1] * s_->n[2] >= kParallelWork;
     for (int d = 0; d < 2; ++d)
-      for (int i = 0; i < s_->n[d] + p_; ++i) wrap_[d].push_back(i % s_->n[d]);
+      for (int i = 0; i < s_->n[d] + p; ++i) wrap_[d].push_back(i % s_->n[d]);
+    atoms_.charge = s_->charge.data();
+    atoms_.n = s_->n;
+    atoms_.row = s_->row;
+    for (int d = 0; d < 3; ++d) {
+      atoms_.scale[d] = s_->scale[d];
+      cell_[d].resize(n_atoms_);
+      atoms_.cell[d] = cell_[d].data();
+      for (auto* w : {&value_[d], &first_[d], &second_[d]}) w->resize(std::size_t(n_atoms_) * stride);
+      atoms_.value[d] = value_[d].data();
+      atoms_.first[d] = first_[d].data();
+      atoms_.second[d] = second_[d].data();
+    }
+    atoms_.wrap_x = wrap_[0].data();
+    atoms_.wrap_y = wrap_[1].data();
   }
 
   double add_forces(const Coords& q, Coords& f, bool energy) override {
@@ -125,7 +147,7 @@ class OrderMesh final : public EwaldMesh {
     const double e = convolve(grid_[0], energy);
     phi_at_ = q;
     phi_ready_ = true;
-    gather_forces(f);
+    over_atoms([&](int begin, int end) { kernels_.gather_forces(atoms_, grid_[0].real(), begin, end, f.data()); });
     return e;
   }
 
@@ -142,33 +164,24 @@ class OrderMesh final : public EwaldMesh {
     }
     spread(grid_[1], &u);
     convolve(grid_[1], false);
-    gather_hessian(u, out);
+    over_atoms([&](int begin, int end) {
+      kernels_.gather_hessian(atoms_, grid_[0].real(), grid_[1].real(), u.data(), begin, end, out.data());
+    });
   }
 
  private:
-  // Each atom's cell and spline weights in x, y, z at q (wrapped into the box).
-  void splines(const Coords& q, bool second) {
-    const std::array<int, 3>& n = s_->n;
-    const Vec3 scale = s_->scale;
-#pragma omp parallel for schedule(static) if (threaded_)
-    for (int i = 0; i < n_atoms_; ++i) {
-      SplineWeights<Real> w;
-      for (int d = 0; d < 3; ++d) {
-        double u = q(d, i) * scale[d];  // grid coordinate
-        u -= n[d] * std::floor(u / n[d]);
-        int c = static_cast<int>(u);
-        const Real frac = static_cast<Real>(u - c);
-        if (c >= n[d]) c -= n[d];  // u rounded up to n
-        cell_[d][i] = c;
-        spline_weights(frac, p_, second, w);
-        const std::size_t at = std::size_t(i) * p_;
-        for (int k = 0; k < p_; ++k) {
-          value_[d][at + k] = w.value[k];
-          first_[d][at + k] = w.first[k];
-          if (second) second_[d][at + k] = w.second[k];
-        }
-      }
+  // f(begin, end) on one contiguous chunk of the atoms per thread.
+  template <class F>
+  void over_atoms(F&& f) {
+#pragma omp parallel if (threaded_)
+    {
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      f(int(long(n_atoms_) * t / nt), int(long(n_atoms_) * (t + 1) / nt));
     }
+  }
+
+  void splines(const Coords& q, bool second) {
+    over_atoms([&](int begin, int end) { kernels_.splines(atoms_, q.data(), second, begin, end); });
   }
 
   // The charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on the grid.
@@ -176,20 +189,13 @@ class OrderMesh final : public EwaldMesh {
     const int threads = omp_get_max_threads();
     const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
     if (static_cast<int>(spread_.size()) != threads) spread_.assign(threads, std::vector<Real>(size));
-    const int p = p_, nz = s_->n[2], row = s_->row;
+    const int p = s_->order, nz = s_->n[2], row = s_->row;
 #pragma omp parallel num_threads(threads) if (threaded_)
     {
       const int t = omp_get_thread_num(), nt = omp_get_num_threads();
       Real* g = spread_[t].data();
       std::fill(g, g + size, Real(0));
-      const int begin = int(long(n_atoms_) * t / nt), end = int(long(n_atoms_) * (t + 1) / nt);
-      for (int i = begin; i < end; ++i) {
-        if (s_->charge[i] == 0) continue;
-        if (u)
-          spread_directional(g, i, (*u).col(i));
-        else
-          spread_charge(g, i);
-      }
+      kernels_.spread(atoms_, u ? u->data() : nullptr, int(long(n_atoms_) * t / nt), int(long(n_atoms_) * (t + 1) / nt), g);
 #pragma omp barrier
       // Fold each row's wrap-around back and sum the threads' grids in thread order.
       Real* out = grid.real();
@@ -207,50 +213,13 @@ class OrderMesh final : public EwaldMesh {
     }
   }
 
-  const Real* weights(const std::array<std::vector<Real>, 3>& w, int d, int i) const { return w[d].data() + std::size_t(i) * p_; }
-
-  void spread_charge(Real* g, int i) const {
-    const Real q = static_cast<Real>(s_->charge[i]);
-    const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
-    const int* wx = wrap_[0].data() + cell_[0][i];
-    const int* wy = wrap_[1].data() + cell_[1][i];
-    const int z0 = cell_[2][i], ny = s_->n[1], row = s_->row, p = p_;
-    for (int a = 0; a < p; ++a) {
-      const Real va = q * tx[a];
-      for (int b = 0; b < p; ++b) {
-        Real* line = g + (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
-        const Real vab = va * ty[b];
-        for (int c = 0; c < p; ++c) line[c] += vab * tz[c];
-      }
-    }
-  }
-
-  // q_i (u_x s_x θ'_x θ_y θ_z + u_y s_y θ_x θ'_y θ_z + u_z s_z θ_x θ_y θ'_z), s = n/L.
-  void spread_directional(Real* g, int i, const Vec3& u) const {
-    const double q = s_->charge[i];
-    const Real ux = static_cast<Real>(q * u[0] * s_->scale[0]), uy = static_cast<Real>(q * u[1] * s_->scale[1]),
-               uz = static_cast<Real>(q * u[2] * s_->scale[2]);
-    const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
-    const Real *dx = weights(first_, 0, i), *dy = weights(first_, 1, i), *dz = weights(first_, 2, i);
-    const int* wx = wrap_[0].data() + cell_[0][i];
-    const int* wy = wrap_[1].data() + cell_[1][i];
-    const int z0 = cell_[2][i], ny = s_->n[1], row = s_->row, p = p_;
-    for (int a = 0; a < p; ++a) {
-      const Real da = ux * dx[a], yb = uy * tx[a], zb = uz * tx[a];
-      for (int b = 0; b < p; ++b) {
-        Real* line = g + (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
-        const Real on_value = da * ty[b] + yb * dy[b], on_first = zb * ty[b];
-        for (int c = 0; c < p; ++c) line[c] += on_value * tz[c] + on_first * dz[c];
-      }
-    }
-  }
-
   // Transforms the spread grid, multiplies by the influence function (summing the energy
   // ½ Σ_m G(m)|S(m)|² when asked) and transforms back: the grid then holds G ⊛ grid, with each
   // row's first p − 1 points repeated after its end for the gathers.
   double convolve(FftGrid<Real>& grid, bool energy) {
-    grid.forward();
-    const int threads = omp_get_max_threads(), nzc = grid.complex_row(), rows = s_->n[0] * s_->n[1];
+    const int threads = omp_get_max_threads(), fft_threads = threaded_ ? threads : 1;
+    grid.forward(fft_threads);
+    const int nzc = grid.complex_row(), rows = s_->n[0] * s_->n[1];
     partial_.assign(threads, 0.0);
     auto* c = grid.complex();
 #pragma omp parallel num_threads(threads) if (threaded_)
@@ -267,9 +236,9 @@ class OrderMesh final : public EwaldMesh {
       }
       partial_[omp_get_thread_num()] = e;
     }
-    grid.backward();
+    grid.backward(fft_threads);
     Real* real = grid.real();
-    const int nz = s_->n[2], row = s_->row, p = p_;
+    const int nz = s_->n[2], row = s_->row, p = s_->order;
 #pragma omp parallel for schedule(static) if (threaded_)
     for (int r = 0; r < rows; ++r)
       for (int z = 0; z < p - 1; ++z) real[std::size_t(r) * row + nz + z] = real[std::size_t(r) * row + z];
@@ -278,112 +247,28 @@ class OrderMesh final : public EwaldMesh {
     return 0.5 * sum;
   }
 
-  // F_i = −q_i Σ_g ∇θ_i(g) φ(g), φ = G ⊛ Q in grid_[0].
-  void gather_forces(Coords& f) const {
-    const Real* phi = grid_[0].real();
-    const int ny = s_->n[1], row = s_->row, p = p_;
-    const Vec3 scale = s_->scale;
-#pragma omp parallel for schedule(static) if (threaded_)
-    for (int i = 0; i < n_atoms_; ++i) {
-      if (s_->charge[i] == 0) continue;
-      const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
-      const Real *dx = weights(first_, 0, i), *dy = weights(first_, 1, i), *dz = weights(first_, 2, i);
-      const int* wx = wrap_[0].data() + cell_[0][i];
-      const int* wy = wrap_[1].data() + cell_[1][i];
-      const int z0 = cell_[2][i];
-      Real fx = 0, fy = 0, fz = 0;
-      for (int a = 0; a < p; ++a)
-        for (int b = 0; b < p; ++b) {
-          const Real* line = phi + (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
-          Real s0 = 0, s1 = 0;
-          for (int c = 0; c < p; ++c) {
-            s0 += tz[c] * line[c];
-            s1 += dz[c] * line[c];
-          }
-          fx += dx[a] * ty[b] * s0;
-          fy += tx[a] * dy[b] * s0;
-          fz += tx[a] * ty[b] * s1;
-        }
-      const double q = s_->charge[i];
-      f(0, i) -= q * scale[0] * fx;
-      f(1, i) -= q * scale[1] * fy;
-      f(2, i) -= q * scale[2] * fz;
-    }
-  }
-
-  // (H u)_i = q_i Σ_g (∇∇θ_i(g) u_i) φ(g) + q_i Σ_g ∇θ_i(g) ψ(g), ψ = G ⊛ dQ in grid_[1].
-  void gather_hessian(const Coords& u, Coords& out) const {
-    const Real *phi = grid_[0].real(), *psi = grid_[1].real();
-    const int ny = s_->n[1], row = s_->row, p = p_;
-    const Vec3 scale = s_->scale;
-#pragma omp parallel for schedule(static) if (threaded_)
-    for (int i = 0; i < n_atoms_; ++i) {
-      if (s_->charge[i] == 0) continue;
-      const Real *tx = weights(value_, 0, i), *ty = weights(value_, 1, i), *tz = weights(value_, 2, i);
-      const Real *dx = weights(first_, 0, i), *dy = weights(first_, 1, i), *dz = weights(first_, 2, i);
-      const Real *ddx = weights(second_, 0, i), *ddy = weights(second_, 1, i), *ddz = weights(second_, 2, i);
-      const int* wx = wrap_[0].data() + cell_[0][i];
-      const int* wy = wrap_[1].data() + cell_[1][i];
-      const int z0 = cell_[2][i];
-      Real hxx = 0, hyy = 0, hzz = 0, hxy = 0, hxz = 0, hyz = 0, gx = 0, gy = 0, gz = 0;
-      for (int a = 0; a < p; ++a)
-        for (int b = 0; b < p; ++b) {
-          const std::size_t at = (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
-          const Real *lp = phi + at, *ls = psi + at;
-          Real p0 = 0, p1 = 0, p2 = 0, s0 = 0, s1 = 0;
-          for (int c = 0; c < p; ++c) {
-            p0 += tz[c] * lp[c];
-            p1 += dz[c] * lp[c];
-            p2 += ddz[c] * lp[c];
-            s0 += tz[c] * ls[c];
-            s1 += dz[c] * ls[c];
-          }
-          hxx += ddx[a] * ty[b] * p0;
-          hyy += tx[a] * ddy[b] * p0;
-          hzz += tx[a] * ty[b] * p2;
-          hxy += dx[a] * dy[b] * p0;
-          hxz += dx[a] * ty[b] * p1;
-          hyz += tx[a] * dy[b] * p1;
-          gx += dx[a] * ty[b] * s0;
-          gy += tx[a] * dy[b] * s0;
-          gz += tx[a] * ty[b] * s1;
-        }
-      // Grid derivatives to Cartesian ones: each derivative in x_d brings a factor s_d = n_d/L_d.
-      const double sx = scale[0], sy = scale[1], sz = scale[2], q = s_->charge[i];
-      const double vx = sx * u(0, i), vy = sy * u(1, i), vz = sz * u(2, i);
-      out(0, i) += q * sx * (hxx * vx + hxy * vy + hxz * vz + gx);
-      out(1, i) += q * sy * (hxy * vx + hyy * vy + hyz * vz + gy);
-      out(2, i) += q * sz * (hxz * vx + hyz * vy + hzz * vz + gz);
-    }
-  }
+  // Threads (ours and FFTW's) only where there is work enough to pay for starting them.
+  static constexpr double kParallelWork = 65536;
 
   std::shared_ptr<const EwaldMeshSetup> s_;
-  static constexpr int p_ = P;
   int n_atoms_;
+  MeshKernels<Real> kernels_;
   std::vector<Real> influence_, weight_;
   std::array<std::vector<int>, 3> cell_;
-  std::array<std::vector<Real>, 3> value_, first_, second_;  // per dimension, p per atom
+  std::array<std::vector<Real>, 3> value_, first_, second_;  // per dimension, spline_stride(p) per atom
   std::array<std::vector<int>, 2> wrap_;                     // i mod n for x and y, i < n + p
+  MeshAtoms<Real> atoms_;                                    // the kernels' view of the above
   std::vector<std::vector<Real>> spread_;                    // per thread
   std::vector<double> partial_;                              // per thread
   FftGrid<Real> grid_[2];
-  // Threads only where there is work enough to pay for starting them.
-  static constexpr double kParallelWork = 16384;
   bool threaded_;
   Coords phi_at_;
   bool phi_ready_ = false;
 };
 
-template <class Real, int... P>
-std::unique_ptr<EwaldMesh> make_mesh(std::shared_ptr<const EwaldMeshSetup> setup, std::integer_sequence<int, P...>) {
-  std::unique_ptr<EwaldMesh> mesh;
-  ((setup->order == P + 3 ? (mesh = std::make_unique<OrderMesh<Real, P + 3>>(setup), 0) : 0), ...);
-  return mesh;
-}
-
 template <class Real>
 std::unique_ptr<EwaldMesh> make_mesh(std::shared_ptr<const EwaldMeshSetup> setup) {
-  return make_mesh<Real>(std::move(setup), std::make_integer_sequence<int, kMaxSplineOrder - 2>());
+  return std::make_unique<PrecisionMesh<Real>>(std::move(setup));
 }
 
 EwaldMesh& made(std::unique_ptr<EwaldMesh>& mesh, bool single, const std::shared_ptr<const EwaldMeshSetup>& setup) {

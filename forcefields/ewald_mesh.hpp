@@ -8,6 +8,7 @@
 // The real-space, self and excluded-pair parts of PME are the pair loop's. Rectangular boxes
 // periodic in x, y and z; positions may be unwrapped. docs/pme.md has the formulas in full.
 //
+// The per-atom loops are SIMD kernels per target and order (ewald_mesh_kernels.hpp).
 // Threads: spreading over atom chunks into per-thread grids summed in thread order, FFTW's
 // OpenMP-threaded real-to-complex transforms (FFTW_ESTIMATE plans: reproducible run to run),
 // gathering over atoms. Results are bitwise reproducible for a given thread count and differ

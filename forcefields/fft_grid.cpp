@@ -1,7 +1,6 @@
 #include "forcefields/fft_grid.hpp"
 
-#include <omp.h>
-
+#include <algorithm>
 #include <mutex>
 #include <new>
 #include <stdexcept>
@@ -35,7 +34,10 @@ FftGrid<Real>::FftGrid(const std::array<int, 3>& n, int row)
     : n_(n),
       row_(row),
       real_(std::size_t(n[0]) * n[1] * row),
-      complex_(std::size_t(n[0]) * n[1] * (n[2] / 2 + 1)) {}
+      complex_(std::size_t(n[0]) * n[1] * (n[2] / 2 + 1)) {
+  // The row padding past nz is read (with zero weights) but never written by the transforms.
+  std::fill(real(), real() + std::size_t(n[0]) * n[1] * row, Real(0));
+}
 
 template <class Real>
 FftGrid<Real>::~FftGrid() {
@@ -47,8 +49,7 @@ FftGrid<Real>::~FftGrid() {
 }
 
 template <class Real>
-const typename FftGrid<Real>::Plans& FftGrid<Real>::plans() {
-  const int threads = omp_get_max_threads();
+const typename FftGrid<Real>::Plans& FftGrid<Real>::plans(int threads) {
   for (const Plans& p : plans_)
     if (p.threads == threads) return p;
   std::lock_guard<std::mutex> guard(planner_lock());
@@ -65,13 +66,13 @@ const typename FftGrid<Real>::Plans& FftGrid<Real>::plans() {
 }
 
 template <class Real>
-void FftGrid<Real>::forward() {
-  Api::r2c(plans().forward, real(), complex_.data());
+void FftGrid<Real>::forward(int threads) {
+  Api::r2c(plans(threads).forward, real(), complex_.data());
 }
 
 template <class Real>
-void FftGrid<Real>::backward() {
-  Api::c2r(plans().backward, complex_.data(), real());
+void FftGrid<Real>::backward(int threads) {
+  Api::c2r(plans(threads).backward, complex_.data(), real());
 }
 
 template class FftGrid<double>;

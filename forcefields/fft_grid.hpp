@@ -68,8 +68,8 @@ class FftwBuffer {
   std::unique_ptr<T[], Free> data_;
 };
 
-// A real grid and its transform; forward() and backward() execute the plans for the current
-// OpenMP thread count (planned at its first use).
+// A real grid and its transform; forward() and backward() execute the plans for a thread count
+// (planned at its first use).
 template <class Real>
 class FftGrid {
  public:
@@ -86,8 +86,8 @@ class FftGrid {
   int row() const { return row_; }
   int complex_row() const { return n_[2] / 2 + 1; }
 
-  void forward();   // real → complex (unnormalised, e^{−2πi k·g/n})
-  void backward();  // complex → real (unnormalised, e^{+2πi k·g/n}); the complex grid is destroyed
+  void forward(int threads);   // real → complex (unnormalised, e^{−2πi k·g/n})
+  void backward(int threads);  // complex → real (unnormalised, e^{+2πi k·g/n}); the complex grid is destroyed
 
  private:
   using Api = FftwApi<Real>;
@@ -95,7 +95,7 @@ class FftGrid {
     int threads;
     typename Api::Plan forward, backward;
   };
-  const Plans& plans();
+  const Plans& plans(int threads);
 
   std::array<int, 3> n_;
   int row_;

@@ -10,6 +10,7 @@
 #include "derivative_checks.hpp"
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "test_ff_systems.hpp"
 
 namespace vimd {
@@ -235,10 +236,11 @@ TEST(EwaldMesh, SinglePrecisionAgreesToFloatRounding) {
 }
 
 TEST(EwaldMesh, ReproducibleAndThreadCountOnlyChangesRoundoff) {
-  const auto [system, q] = testing::water_like_system(40, Vec3(2.0, 2.1, 2.2), 5);
+  // Large enough for the mesh to start threads.
+  const auto [system, q] = testing::water_like_system(100, Vec3(2.2, 2.3, 2.4), 5);
   const Coords u = random_direction(system.n_atoms(), 9);
   const int threads = omp_get_max_threads();
-  EwaldMeshTerm term(system, parameters({20, 21, 22}, 6), false);
+  EwaldMeshTerm term(system, parameters({20, 21, 22}, 8), false);
   const auto first = evaluate(term, q);
   const Coords first_hu = hessian_vector(term, q, u);
   const Coords q2 = q.array() + 0.01;
@@ -253,7 +255,7 @@ TEST(EwaldMesh, ReproducibleAndThreadCountOnlyChangesRoundoff) {
   Coords f = Coords::Zero(3, q.cols());
   double e = 0;
   term.add_single_point(q2, f, std::span<double>(&e, 1));
-  EwaldMeshTerm fresh(system, parameters({20, 21, 22}, 6), false);
+  EwaldMeshTerm fresh(system, parameters({20, 21, 22}, 8), false);
   const auto at_q2 = evaluate(fresh, q2);
   EXPECT_EQ(e, at_q2.energy);
   EXPECT_EQ(f, at_q2.f);
@@ -267,6 +269,25 @@ TEST(EwaldMesh, ReproducibleAndThreadCountOnlyChangesRoundoff) {
     EXPECT_LT(relative_difference(hessian_vector(term, q, u), first_hu), 1e-13) << t;
   }
   omp_set_num_threads(threads);
+}
+
+TEST(EwaldMesh, SimdTargetsAgree) {
+  const auto [system, q] = small_water();
+  const Coords u = random_direction(system.n_atoms(), 2);
+  for (int order : {4, 5, 12}) {
+    std::vector<testing::TermResult> results;
+    std::vector<Coords> products;
+    for (const std::string& target : simd::available_targets()) {
+      simd::use_target(target);
+      EwaldMeshTerm term(system, parameters({16, 15, 14}, order), false);
+      results.push_back(evaluate(term, q));
+      products.push_back(hessian_vector(term, q, u));
+      EXPECT_NEAR(results.back().energy, results[0].energy, 1e-13 * std::abs(results[0].energy)) << target << " " << order;
+      EXPECT_LT(relative_difference(results.back().f, results[0].f), 1e-13) << target << " " << order;
+      EXPECT_LT(relative_difference(products.back(), products[0]), 1e-13) << target << " " << order;
+    }
+    simd::use_target("");
+  }
 }
 
 TEST(EwaldMesh, ForcesOnlyPassSkipsNoForce) {
