@@ -14,7 +14,7 @@ done
 ((${#targets[@]})) || targets=(vimd)
 
 packages=(g++ cmake make pkg-config libeigen3-dev libgtest-dev libtomlplusplus-dev libcli11-dev libhwy-dev
-          gromacs time python3-numpy python3-scipy python3-matplotlib python3-mdanalysis
+          libfftw3-dev gromacs time python3-numpy python3-scipy python3-matplotlib python3-mdanalysis
           python3-dev pybind11-dev python3-pytest)
 ((fuzz)) && packages+=(clang libclang-rt-14-dev)
 missing=()

@@ -15,6 +15,7 @@
 #include "forcefields/ewald-inl.h"
 #include "forcefields/reaction_field-inl.h"
 #include "forcefields/registry.hpp"
+#include "derivative_checks.hpp"
 #include "test_ff_systems.hpp"
 
 namespace vimd {
@@ -24,52 +25,10 @@ namespace {
 using namespace vimd::HWY_NAMESPACE;
 
 using testing::evaluate;
+using testing::expect_derivatives_match;
+using testing::random_direction;
 using testing::hessian_vector;
 using testing::relative_difference;
-
-// Fourth-order central differences: truncation O(h⁴), so 1e-6 relative is a real check.
-constexpr double kStep = 1e-5;
-
-Coords finite_difference_forces(ForceTerm& term, const Coords& q) {
-  Coords f(3, q.cols());
-  for (int i = 0; i < q.cols(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      auto energy = [&](double h) {
-        Coords p = q;
-        p(k, i) += h;
-        return evaluate(term, p).energy;
-      };
-      f(k, i) = -(-energy(2 * kStep) + 8 * energy(kStep) - 8 * energy(-kStep) + energy(-2 * kStep)) / (12 * kStep);
-    }
-  return f;
-}
-
-// ∇²V u = −d/dε F(q + ε u).
-Coords finite_difference_hessian_vector(ForceTerm& term, const Coords& q, const Coords& u) {
-  auto force = [&](double h) { return evaluate(term, q + h * u).f; };
-  return -(-force(2 * kStep) + 8 * force(kStep) - 8 * force(-kStep) + force(-2 * kStep)) / (12 * kStep);
-}
-
-Coords random_direction(int n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Coords u(3, n);
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
-  return u;
-}
-
-void expect_derivatives_match(ForceTerm& term, const Coords& q, const std::string& what) {
-  const auto at_q = evaluate(term, q);
-  ASSERT_GT(at_q.f.norm(), 0.0) << what << ": forces vanish, the check would be empty";
-  const Coords fd = finite_difference_forces(term, q);
-  EXPECT_LT(relative_difference(at_q.f, fd), 1e-6) << what << ": forces vs finite differences";
-  const Coords u = random_direction(static_cast<int>(q.cols()), 7);
-  const Coords hu = hessian_vector(term, q, u);
-  ASSERT_GT(hu.norm(), 0.0) << what;
-  EXPECT_LT(relative_difference(hu, finite_difference_hessian_vector(term, q, u)), 1e-6)
-      << what << ": Hessian-vector product vs finite differences";
-}
 
 // ---------------------------------------------------------------------------------------------
 // Kernel formulas, written here independently from the GROMACS reference manual

@@ -1,0 +1,306 @@
+#include "forcefields/ewald_mesh.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "forcefields/bspline.hpp"
+#include "forcefields/ewald_mesh_kernels.hpp"
+#include "forcefields/fft_grid.hpp"
+
+namespace vimd {
+
+namespace {
+
+// |Σ_{j=1}^{p−1} M_p(j) e^{2πi k j/n}|² for k = 0..n−1: the B(k) of the influence function, as
+// GROMACS computes it (make_bspline_moduli). For odd p and even n it vanishes at k = n/2; GROMACS
+// then takes the mean of its neighbours there (Essmann et al.: that term's weight is negligible).
+std::vector<double> bspline_moduli(int n, int p) {
+  const auto m = spline_at_integers(p);
+  std::vector<double> b(n);
+  for (int k = 0; k < n; ++k) {
+    double c = 0, s = 0;
+    for (int j = 1; j < p; ++j) {
+      const double arg = 2 * M_PI * k * j / n;
+      c += m[j - 1] * std::cos(arg);
+      s += m[j - 1] * std::sin(arg);
+    }
+    b[k] = c * c + s * s;
+  }
+  if (p % 2 == 1 && n % 2 == 0) b[n / 2] = 0.5 * (b[n / 2 - 1] + b[n / 2 + 1]);
+  return b;
+}
+
+}  // namespace
+
+struct EwaldMeshSetup {
+  std::array<int, 3> n;
+  int order;
+  int row;          // real-grid row length: a charge's z points (vectors of them) never wrap
+  Vec3 scale;       // n/L: d(grid coordinate)/dx, nm⁻¹
+  std::vector<double> charge;
+  double net_charge_energy;
+  // On the half-complex grid (x, y, kz ≤ nz/2): f/ε_r exp(−π²m²/β²) / (π V m² B(m)), 0 at m = 0,
+  // and the energy weight of each kz (1 for kz = 0 and nz/2, which the half grid holds once; 2
+  // for the others, which stand for ±kz).
+  std::vector<double> influence;
+  std::vector<double> energy_weight;
+
+  EwaldMeshSetup(const System& system, const EwaldMeshParameters& p)
+      : n(p.grid), order(p.order), row(p.grid[2] + spline_stride(p.order) - 1), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
+    if (!system.box.periodic())
+      throw std::invalid_argument("the Ewald mesh (PME) needs a box periodic in x, y and z");
+    if (p.order < 3 || p.order > kMaxSplineOrder)
+      throw std::invalid_argument("PME order " + std::to_string(p.order) + " is outside 3.." + std::to_string(kMaxSplineOrder));
+    for (int d = 0; d < 3; ++d)
+      if (n[d] < p.order)
+        throw std::invalid_argument("PME grid of " + std::to_string(n[d]) + " points is smaller than the order " +
+                                    std::to_string(p.order));
+    if (!(p.beta > 0)) throw std::invalid_argument("the Ewald coefficient beta must be positive");
+    const Vec3& length = system.box.length;
+    const double volume = system.box.volume();
+    for (int d = 0; d < 3; ++d) scale[d] = n[d] / length[d];
+    double total = 0;
+    for (double q : charge) total += q;
+    net_charge_energy = -M_PI * p.prefactor * total * total / (2 * volume * p.beta * p.beta);
+
+    std::array<std::vector<double>, 3> moduli;
+    for (int d = 0; d < 3; ++d) moduli[d] = bspline_moduli(n[d], p.order);
+    const int nzc = n[2] / 2 + 1;
+    influence.resize(std::size_t(n[0]) * n[1] * nzc);
+    const double factor = M_PI * M_PI / (p.beta * p.beta);
+    auto wave = [&](int k, int d) { return (k < (n[d] + 1) / 2 ? k : k - n[d]) / length[d]; };
+    for (int x = 0; x < n[0]; ++x)
+      for (int y = 0; y < n[1]; ++y)
+        for (int z = 0; z < nzc; ++z) {
+          const double mx = wave(x, 0), my = wave(y, 1), mz = z / length[2];
+          const double m2 = mx * mx + my * my + mz * mz;
+          const std::size_t i = (std::size_t(x) * n[1] + y) * nzc + z;
+          influence[i] = m2 == 0 ? 0.0
+                                 : p.prefactor * std::exp(-factor * m2) /
+                                       (M_PI * volume * m2 * moduli[0][x] * moduli[1][y] * moduli[2][z]);
+        }
+    energy_weight.assign(nzc, 2.0);
+    energy_weight[0] = 1;
+    if (n[2] % 2 == 0) energy_weight[nzc - 1] = 1;
+  }
+};
+
+class EwaldMesh {
+ public:
+  virtual ~EwaldMesh() = default;
+  // Adds −∇E to f; returns the mesh energy when asked (else 0).
+  virtual double add_forces(const Coords& q, Coords& f, bool energy) = 0;
+  virtual void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) = 0;
+};
+
+namespace {
+
+template <class Real>
+MeshKernels<Real> kernels_of(int p);
+template <>
+MeshKernels<double> kernels_of<double>(int p) {
+  return mesh_kernels(p);
+}
+template <>
+MeshKernels<float> kernels_of<float>(int p) {
+  return single_mesh_kernels(p);
+}
+
+// One precision's mesh: spline weights of the last positions, per-thread spreading grids, and two
+// transform grids (the charges' and, for Hessian–vector products, their directional derivative's).
+template <class Real>
+class PrecisionMesh final : public EwaldMesh {
+ public:
+  explicit PrecisionMesh(std::shared_ptr<const EwaldMeshSetup> setup)
+      : s_(std::move(setup)),
+        n_atoms_(static_cast<int>(s_->charge.size())),
+        kernels_(kernels_of<Real>(s_->order)),
+        influence_(s_->influence.begin(), s_->influence.end()),
+        weight_(s_->energy_weight.begin(), s_->energy_weight.end()),
+        grid_{FftGrid<Real>(s_->n, s_->row), FftGrid<Real>(s_->n, s_->row)} {
+    const int p = s_->order, stride = spline_stride(p);
+    threaded_ = double(n_atoms_) * p * p * p + double(s_->n[0]) * s_->n[1] * s_->n[2] >= kParallelWork;
+    for (int d = 0; d < 2; ++d)
+      for (int i = 0; i < s_->n[d] + p; ++i) wrap_[d].push_back(i % s_->n[d]);
+    atoms_.charge = s_->charge.data();
+    atoms_.n = s_->n;
+    atoms_.row = s_->row;
+    for (int d = 0; d < 3; ++d) {
+      atoms_.scale[d] = s_->scale[d];
+      cell_[d].resize(n_atoms_);
+      atoms_.cell[d] = cell_[d].data();
+      for (auto* w : {&value_[d], &first_[d], &second_[d]}) w->resize(std::size_t(n_atoms_) * stride);
+      atoms_.value[d] = value_[d].data();
+      atoms_.first[d] = first_[d].data();
+      atoms_.second[d] = second_[d].data();
+    }
+    atoms_.wrap_x = wrap_[0].data();
+    atoms_.wrap_y = wrap_[1].data();
+  }
+
+  double add_forces(const Coords& q, Coords& f, bool energy) override {
+    splines(q, false);
+    spread(grid_[0], nullptr);
+    const double e = convolve(grid_[0], energy);
+    phi_at_ = q;
+    phi_ready_ = true;
+    over_atoms([&](int begin, int end) { kernels_.gather_forces(atoms_, grid_[0].real(), begin, end, f.data()); });
+    return e;
+  }
+
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override {
+    // A Hessian–vector product at the positions of the last force pass (the integrators' usual
+    // pattern) takes its potential grid: the same arithmetic, so the same result.
+    const bool reuse = phi_ready_ && phi_at_.cols() == q.cols() && phi_at_ == q;
+    splines(q, true);
+    if (!reuse) {
+      spread(grid_[0], nullptr);
+      convolve(grid_[0], false);
+      phi_at_ = q;
+      phi_ready_ = true;
+    }
+    spread(grid_[1], &u);
+    convolve(grid_[1], false);
+    over_atoms([&](int begin, int end) {
+      kernels_.gather_hessian(atoms_, grid_[0].real(), grid_[1].real(), u.data(), begin, end, out.data());
+    });
+  }
+
+ private:
+  // f(begin, end) on one contiguous chunk of the atoms per thread.
+  template <class F>
+  void over_atoms(F&& f) {
+#pragma omp parallel if (threaded_)
+    {
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      f(int(long(n_atoms_) * t / nt), int(long(n_atoms_) * (t + 1) / nt));
+    }
+  }
+
+  void splines(const Coords& q, bool second) {
+    over_atoms([&](int begin, int end) { kernels_.splines(atoms_, q.data(), second, begin, end); });
+  }
+
+  // The charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on the grid.
+  void spread(FftGrid<Real>& grid, const Coords* u) {
+    const int threads = omp_get_max_threads();
+    const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
+    if (static_cast<int>(spread_.size()) != threads) spread_.assign(threads, std::vector<Real>(size));
+    const int p = s_->order, nz = s_->n[2], row = s_->row;
+#pragma omp parallel num_threads(threads) if (threaded_)
+    {
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      Real* g = spread_[t].data();
+      std::fill(g, g + size, Real(0));
+      kernels_.spread(atoms_, u ? u->data() : nullptr, int(long(n_atoms_) * t / nt), int(long(n_atoms_) * (t + 1) / nt), g);
+#pragma omp barrier
+      // Fold each row's wrap-around back and sum the threads' grids in thread order.
+      Real* out = grid.real();
+      const int rows = s_->n[0] * s_->n[1];
+#pragma omp for schedule(static)
+      for (int r = 0; r < rows; ++r) {
+        Real* o = out + std::size_t(r) * row;
+        for (int z = 0; z < nz; ++z) o[z] = 0;
+        for (int k = 0; k < nt; ++k) {
+          const Real* in = spread_[k].data() + std::size_t(r) * row;
+          for (int z = 0; z < nz; ++z) o[z] += in[z];
+          for (int z = 0; z < p - 1; ++z) o[z] += in[nz + z];
+        }
+      }
+    }
+  }
+
+  // Transforms the spread grid, multiplies by the influence function (summing the energy
+  // ½ Σ_m G(m)|S(m)|² when asked) and transforms back: the grid then holds G ⊛ grid, with each
+  // row's first p − 1 points repeated after its end for the gathers.
+  double convolve(FftGrid<Real>& grid, bool energy) {
+    const int threads = omp_get_max_threads(), fft_threads = threaded_ ? threads : 1;
+    grid.forward(fft_threads);
+    const int nzc = grid.complex_row(), rows = s_->n[0] * s_->n[1];
+    partial_.assign(threads, 0.0);
+    auto* c = grid.complex();
+#pragma omp parallel num_threads(threads) if (threaded_)
+    {
+      double e = 0;
+#pragma omp for schedule(static)
+      for (int r = 0; r < rows; ++r) {
+        const std::size_t at = std::size_t(r) * nzc;
+        for (int z = 0; z < nzc; ++z) {
+          const Real g = influence_[at + z];
+          if (energy) e += double(weight_[z] * g * std::norm(c[at + z]));
+          c[at + z] *= g;
+        }
+      }
+      partial_[omp_get_thread_num()] = e;
+    }
+    grid.backward(fft_threads);
+    Real* real = grid.real();
+    const int nz = s_->n[2], row = s_->row, p = s_->order;
+#pragma omp parallel for schedule(static) if (threaded_)
+    for (int r = 0; r < rows; ++r)
+      for (int z = 0; z < p - 1; ++z) real[std::size_t(r) * row + nz + z] = real[std::size_t(r) * row + z];
+    double sum = 0;
+    for (double e : partial_) sum += e;
+    return 0.5 * sum;
+  }
+
+  // Threads (ours and FFTW's) only where there is work enough to pay for starting them.
+  static constexpr double kParallelWork = 65536;
+
+  std::shared_ptr<const EwaldMeshSetup> s_;
+  int n_atoms_;
+  MeshKernels<Real> kernels_;
+  std::vector<Real> influence_, weight_;
+  std::array<std::vector<int>, 3> cell_;
+  std::array<std::vector<Real>, 3> value_, first_, second_;  // per dimension, spline_stride(p) per atom
+  std::array<std::vector<int>, 2> wrap_;                     // i mod n for x and y, i < n + p
+  MeshAtoms<Real> atoms_;                                    // the kernels' view of the above
+  std::vector<std::vector<Real>> spread_;                    // per thread
+  std::vector<double> partial_;                              // per thread
+  FftGrid<Real> grid_[2];
+  bool threaded_;
+  Coords phi_at_;
+  bool phi_ready_ = false;
+};
+
+template <class Real>
+std::unique_ptr<EwaldMesh> make_mesh(std::shared_ptr<const EwaldMeshSetup> setup) {
+  return std::make_unique<PrecisionMesh<Real>>(std::move(setup));
+}
+
+EwaldMesh& made(std::unique_ptr<EwaldMesh>& mesh, bool single, const std::shared_ptr<const EwaldMeshSetup>& setup) {
+  if (!mesh) mesh = single ? make_mesh<float>(setup) : make_mesh<double>(setup);
+  return *mesh;
+}
+
+}  // namespace
+
+EwaldMeshTerm::EwaldMeshTerm(const System& system, const EwaldMeshParameters& p, bool mixed_precision)
+    : setup_(std::make_shared<EwaldMeshSetup>(system, p)), mixed_(mixed_precision) {}
+
+EwaldMeshTerm::~EwaldMeshTerm() = default;
+
+double EwaldMeshTerm::net_charge_energy() const { return setup_->net_charge_energy; }
+
+void EwaldMeshTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how) {
+  const bool single = mixed_ || how.single_precision;
+  const double e = made(single ? single_ : double_, single, setup_).add_forces(q, f, !energies.empty());
+  if (!energies.empty()) energies[0] += e + setup_->net_charge_energy;
+}
+
+void EwaldMeshTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how) {
+  const bool single = mixed_ || how.single_precision;
+  made(single ? single_ : double_, single, setup_).add_hessian_vector(q, u, out);
+}
+
+void EwaldMeshTerm::add_single_point(const Coords& q, Coords& f, std::span<double> energies) const {
+  // A mesh of its own: the term's grids and cached potential stay as they were.
+  const auto mesh = mixed_ ? make_mesh<float>(setup_) : make_mesh<double>(setup_);
+  const double e = mesh->add_forces(q, f, !energies.empty());
+  if (!energies.empty()) energies[0] += e + setup_->net_charge_energy;
+}
+
+}  // namespace vimd

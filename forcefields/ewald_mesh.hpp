@@ -1,0 +1,62 @@
+#pragma once
+// The reciprocal-space (mesh) part of smooth particle-mesh Ewald (Essmann et al. 1995), with
+// GROMACS's B-spline convention, moduli and influence function, energy "coulomb_recip" (GROMACS's
+// "Coul. recip."):
+//   E = f/(2πV ε_r) Σ_{m≠0} exp(−π²m²/β²) / (m² B(m)) |S(m)|²  −  π f Q² / (2 V β² ε_r)
+//   S(m) = Σ_grid Q(g) e^{−2πi m·g/n}, Q the charges spread on the grid by B-splines of order p,
+//   B(m) = B_x B_y B_z the splines' Fourier moduli, Q = Σ q the net charge (its term is constant).
+// The real-space, self and excluded-pair parts of PME are the pair loop's. Rectangular boxes
+// periodic in x, y and z; positions may be unwrapped. docs/pme.md has the formulas in full.
+//
+// The per-atom loops are SIMD kernels per target and order (ewald_mesh_kernels.hpp).
+// Threads: spreading over atom chunks into per-thread grids summed in thread order, FFTW's
+// OpenMP-threaded real-to-complex transforms (FFTW_ESTIMATE plans: reproducible run to run),
+// gathering over atoms. Results are bitwise reproducible for a given thread count and differ
+// between thread counts by round-off only.
+// Precision: double, or float grids and transforms (as GROMACS's mixed build) with mixed_precision
+// or TermEvaluation::single_precision; energies summed in double either way.
+#include <array>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/force_field.hpp"
+#include "engine/system.hpp"
+
+namespace vimd {
+
+struct EwaldMeshParameters {
+  std::array<int, 3> grid;  // nx, ny, nz grid points
+  int order;                // B-spline interpolation order p (GROMACS pme-order), 3..12
+  double beta;              // Ewald splitting coefficient, nm⁻¹
+  double prefactor;         // f/ε_r, kJ/mol nm e⁻² (f = kCoulomb)
+};
+
+// What every mesh of one term shares: grid, order, box, charges and the influence function.
+struct EwaldMeshSetup;
+// One precision's grids and transforms.
+class EwaldMesh;
+
+class EwaldMeshTerm : public ForceTerm {
+ public:
+  EwaldMeshTerm(const System& system, const EwaldMeshParameters& p, bool mixed_precision);
+  ~EwaldMeshTerm() override;
+
+  std::vector<std::string> energy_names() const override { return {"coulomb_recip"}; }
+  void add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how = {}) override;
+  void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how = {}) override;
+  void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const override;
+  bool has_single_precision() const override { return true; }
+
+  // −π f Q² / (2 V β² ε_r): constant, included in the energy.
+  double net_charge_energy() const;
+
+ private:
+  std::shared_ptr<const EwaldMeshSetup> setup_;
+  bool mixed_;
+  // Made at first use.
+  std::unique_ptr<EwaldMesh> double_, single_;
+};
+
+}  // namespace vimd

@@ -1,0 +1,217 @@
+// The Ewald mesh's per-atom loops, once per SIMD target (Highway's foreach_target re-includes this
+// file for each) and per order P. An atom touches P × P rows of P contiguous z points: the z
+// direction is vectorised (⌈P / lanes⌉ vectors, the weights zero beyond P), x and y are scalar.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "forcefields/ewald_mesh_kernels.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+
+#include <cmath>
+#include <cstddef>
+#include <utility>
+
+#include "forcefields/bspline.hpp"
+#include "forcefields/ewald_mesh_kernels.hpp"
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace vimd {
+namespace HWY_NAMESPACE {
+namespace {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+template <class Real, int P>
+struct OrderKernels {
+  static constexpr int S = spline_stride(P);
+  using D = hn::CappedTag<Real, S>;
+  static constexpr int L = static_cast<int>(hn::MaxLanes(D()));
+  static constexpr int V = (P + L - 1) / L;  // vectors per row of P points, V·L ≤ S
+
+  static void splines(const MeshAtoms<Real>& m, const double* q, bool second, int begin, int end) {
+    for (int i = begin; i < end; ++i)
+      for (int d = 0; d < 3; ++d) {
+        const int n = m.n[d];
+        double u = q[3 * i + d] * m.scale[d];  // grid coordinate
+        u -= n * std::floor(u / n);
+        int c = static_cast<int>(u);
+        const Real t = static_cast<Real>(u - c);
+        if (c >= n) c -= n;  // u rounded up to n
+        m.cell[d][i] = c;
+        SplineWeights<Real> w{};  // (second set only when asked: the compiler cannot tell)
+        spline_weights(t, P, second, w);
+        Real *value = m.value[d] + std::size_t(i) * S, *first = m.first[d] + std::size_t(i) * S;
+        for (int k = 0; k < S; ++k) {
+          value[k] = k < P ? w.value[k] : Real(0);
+          first[k] = k < P ? w.first[k] : Real(0);
+        }
+        if (second) {
+          Real* s = m.second[d] + std::size_t(i) * S;
+          for (int k = 0; k < S; ++k) s[k] = k < P ? w.second[k] : Real(0);
+        }
+      }
+  }
+
+  static void spread(const MeshAtoms<Real>& m, const double* u, int begin, int end, Real* grid) {
+    const D d;
+    const int ny = m.n[1], row = m.row;
+    for (int i = begin; i < end; ++i) {
+      const double q = m.charge[i];
+      if (q == 0) continue;
+      const std::size_t at = std::size_t(i) * S;
+      const Real *tx = m.value[0] + at, *ty = m.value[1] + at, *tz = m.value[2] + at;
+      const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;
+      const int *wx = m.wrap_x + m.cell[0][i], *wy = m.wrap_y + m.cell[1][i];
+      Real* base = grid + m.cell[2][i];
+      if (!u) {
+        const Real qr = static_cast<Real>(q);
+        for (int a = 0; a < P; ++a) {
+          const Real va = qr * tx[a];
+          for (int b = 0; b < P; ++b) {
+            Real* line = base + (std::size_t(wx[a]) * ny + wy[b]) * row;
+            const auto c = hn::Set(d, va * ty[b]);
+            for (int j = 0; j < V; ++j)
+              hn::StoreU(hn::MulAdd(c, hn::LoadU(d, tz + j * L), hn::LoadU(d, line + j * L)), d, line + j * L);
+          }
+        }
+      } else {
+        // q (u_x s_x θ'_x θ_y θ_z + u_y s_y θ_x θ'_y θ_z + u_z s_z θ_x θ_y θ'_z), s = n/L
+        const Real ux = static_cast<Real>(q * u[3 * i] * m.scale[0]), uy = static_cast<Real>(q * u[3 * i + 1] * m.scale[1]),
+                   uz = static_cast<Real>(q * u[3 * i + 2] * m.scale[2]);
+        for (int a = 0; a < P; ++a) {
+          const Real da = ux * dx[a], ya = uy * tx[a], za = uz * tx[a];
+          for (int b = 0; b < P; ++b) {
+            Real* line = base + (std::size_t(wx[a]) * ny + wy[b]) * row;
+            const auto on_value = hn::Set(d, da * ty[b] + ya * dy[b]), on_first = hn::Set(d, za * ty[b]);
+            for (int j = 0; j < V; ++j) {
+              const auto sum = hn::MulAdd(on_first, hn::LoadU(d, dz + j * L), hn::LoadU(d, line + j * L));
+              hn::StoreU(hn::MulAdd(on_value, hn::LoadU(d, tz + j * L), sum), d, line + j * L);
+            }
+          }
+        }
+      }
+    }
+  }
+
+  static Real sum(hn::Vec<D> v) { return hn::GetLane(hn::SumOfLanes(D(), v)); }
+
+  static void gather_forces(const MeshAtoms<Real>& m, const Real* phi, int begin, int end, double* f) {
+    const D d;
+    const int ny = m.n[1], row = m.row;
+    for (int i = begin; i < end; ++i) {
+      const double q = m.charge[i];
+      if (q == 0) continue;
+      const std::size_t at = std::size_t(i) * S;
+      const Real *tx = m.value[0] + at, *ty = m.value[1] + at, *tz = m.value[2] + at;
+      const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;
+      const int *wx = m.wrap_x + m.cell[0][i], *wy = m.wrap_y + m.cell[1][i];
+      const Real* base = phi + m.cell[2][i];
+      auto fx = hn::Zero(d), fy = hn::Zero(d), fz = hn::Zero(d);
+      for (int a = 0; a < P; ++a)
+        for (int b = 0; b < P; ++b) {
+          const Real* line = base + (std::size_t(wx[a]) * ny + wy[b]) * row;
+          const auto cx = hn::Set(d, dx[a] * ty[b]), cy = hn::Set(d, tx[a] * dy[b]), cz = hn::Set(d, tx[a] * ty[b]);
+          for (int j = 0; j < V; ++j) {
+            const auto l = hn::LoadU(d, line + j * L);
+            const auto lt = hn::Mul(l, hn::LoadU(d, tz + j * L));
+            fx = hn::MulAdd(cx, lt, fx);
+            fy = hn::MulAdd(cy, lt, fy);
+            fz = hn::MulAdd(cz, hn::Mul(l, hn::LoadU(d, dz + j * L)), fz);
+          }
+        }
+      f[3 * i] -= q * m.scale[0] * sum(fx);
+      f[3 * i + 1] -= q * m.scale[1] * sum(fy);
+      f[3 * i + 2] -= q * m.scale[2] * sum(fz);
+    }
+  }
+
+  static void gather_hessian(const MeshAtoms<Real>& m, const Real* phi, const Real* psi, const double* u, int begin,
+                             int end, double* out) {
+    const D d;
+    const int ny = m.n[1], row = m.row;
+    for (int i = begin; i < end; ++i) {
+      const double q = m.charge[i];
+      if (q == 0) continue;
+      const std::size_t at = std::size_t(i) * S;
+      const Real *tx = m.value[0] + at, *ty = m.value[1] + at, *tz = m.value[2] + at;
+      const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;
+      const Real *ddx = m.second[0] + at, *ddy = m.second[1] + at, *ddz = m.second[2] + at;
+      const int *wx = m.wrap_x + m.cell[0][i], *wy = m.wrap_y + m.cell[1][i];
+      const std::size_t z0 = m.cell[2][i];
+      auto hxx = hn::Zero(d), hyy = hn::Zero(d), hzz = hn::Zero(d), hxy = hn::Zero(d), hxz = hn::Zero(d),
+           hyz = hn::Zero(d), gx = hn::Zero(d), gy = hn::Zero(d), gz = hn::Zero(d);
+      for (int a = 0; a < P; ++a)
+        for (int b = 0; b < P; ++b) {
+          const std::size_t line = (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
+          const auto c_xx = hn::Set(d, ddx[a] * ty[b]), c_yy = hn::Set(d, tx[a] * ddy[b]),
+                     c_00 = hn::Set(d, tx[a] * ty[b]), c_xy = hn::Set(d, dx[a] * dy[b]),
+                     c_x0 = hn::Set(d, dx[a] * ty[b]), c_0y = hn::Set(d, tx[a] * dy[b]);
+          for (int j = 0; j < V; ++j) {
+            const auto t = hn::LoadU(d, tz + j * L), dt = hn::LoadU(d, dz + j * L);
+            const auto lp = hn::LoadU(d, phi + line + j * L), ls = hn::LoadU(d, psi + line + j * L);
+            const auto p0 = hn::Mul(lp, t), p1 = hn::Mul(lp, dt), s0 = hn::Mul(ls, t);
+            hxx = hn::MulAdd(c_xx, p0, hxx);
+            hyy = hn::MulAdd(c_yy, p0, hyy);
+            hzz = hn::MulAdd(c_00, hn::Mul(lp, hn::LoadU(d, ddz + j * L)), hzz);
+            hxy = hn::MulAdd(c_xy, p0, hxy);
+            hxz = hn::MulAdd(c_x0, p1, hxz);
+            hyz = hn::MulAdd(c_0y, p1, hyz);
+            gx = hn::MulAdd(c_x0, s0, gx);
+            gy = hn::MulAdd(c_0y, s0, gy);
+            gz = hn::MulAdd(c_00, hn::Mul(ls, dt), gz);
+          }
+        }
+      // Grid derivatives to Cartesian ones: each derivative in x_d brings a factor s_d = n_d/L_d.
+      const double sx = m.scale[0], sy = m.scale[1], sz = m.scale[2];
+      const double vx = sx * u[3 * i], vy = sy * u[3 * i + 1], vz = sz * u[3 * i + 2];
+      const double Hxx = sum(hxx), Hyy = sum(hyy), Hzz = sum(hzz), Hxy = sum(hxy), Hxz = sum(hxz), Hyz = sum(hyz);
+      out[3 * i] += q * sx * (Hxx * vx + Hxy * vy + Hxz * vz + sum(gx));
+      out[3 * i + 1] += q * sy * (Hxy * vx + Hyy * vy + Hyz * vz + sum(gy));
+      out[3 * i + 2] += q * sz * (Hxz * vx + Hyz * vy + Hzz * vz + sum(gz));
+    }
+  }
+
+  static MeshKernels<Real> table() { return {splines, spread, gather_forces, gather_hessian}; }
+};
+
+template <class Real, int... P>
+MeshKernels<Real> kernels_of_order(int p, std::integer_sequence<int, P...>) {
+  MeshKernels<Real> k{};
+  ((p == P + 3 ? (k = OrderKernels<Real, P + 3>::table(), 0) : 0), ...);
+  return k;
+}
+
+}  // namespace
+
+// Entry points of this target, for HWY_DYNAMIC_DISPATCH.
+MeshKernels<double> MeshKernelsFor(int p) {
+  return kernels_of_order<double>(p, std::make_integer_sequence<int, kMaxSplineOrder - 2>());
+}
+MeshKernels<float> SingleMeshKernelsFor(int p) {
+  return kernels_of_order<float>(p, std::make_integer_sequence<int, kMaxSplineOrder - 2>());
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace vimd
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+#include <stdexcept>
+
+namespace vimd {
+
+HWY_EXPORT(MeshKernelsFor);
+HWY_EXPORT(SingleMeshKernelsFor);
+
+namespace {
+template <class Kernels>
+Kernels checked(Kernels k, int p) {
+  if (!k.spread) throw std::invalid_argument("no Ewald mesh kernels for order " + std::to_string(p));
+  return k;
+}
+}  // namespace
+
+MeshKernels<double> mesh_kernels(int p) { return checked(HWY_DYNAMIC_DISPATCH(MeshKernelsFor)(p), p); }
+MeshKernels<float> single_mesh_kernels(int p) { return checked(HWY_DYNAMIC_DISPATCH(SingleMeshKernelsFor)(p), p); }
+
+}  // namespace vimd
+#endif  // HWY_ONCE
