@@ -27,6 +27,7 @@ struct WorkCounters {
   long neighbor_rebuilds = 0;  // pair searches
   long neighbor_prunes = 0;    // prunings of pair lists, step lists included
   double neighbor_build_seconds = 0;  // wall time of those searches and prunings
+  double mesh_seconds = 0;            // wall time of PME's mesh (forces and Hessian–vector products)
 
   // f(name, pointer to member) for every counter, in report order.
   template <class F>
@@ -38,6 +39,7 @@ struct WorkCounters {
     f("neighbor_rebuilds", &WorkCounters::neighbor_rebuilds);
     f("neighbor_prunes", &WorkCounters::neighbor_prunes);
     f("neighbor_build_seconds", &WorkCounters::neighbor_build_seconds);
+    f("mesh_seconds", &WorkCounters::mesh_seconds);
   }
   WorkCounters& operator+=(const WorkCounters& b) {
     fields([&](const char*, auto m) { this->*m += b.*m; });

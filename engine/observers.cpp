@@ -325,6 +325,9 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
     std::fprintf(out_, "                    of which in single precision (mixed-precision solve): %.2f and %.2f\n",
                  totals.single_precision_force_evaluations / steps,
                  totals.single_precision_hessian_evaluations / steps);
+  if (totals.mesh_seconds > 0)
+    std::fprintf(out_, "                    PME mesh %.3f ms/step (%.1f%% of the wall time)\n",
+                 1e3 * totals.mesh_seconds / steps, 100 * totals.mesh_seconds / totals.wall_seconds);
   if (!platform_.empty()) {
     std::fprintf(out_, "  platform         ");
     for (const auto& [key, value] : platform_) std::fprintf(out_, " %s %s;", key.c_str(), value.c_str());
@@ -357,6 +360,7 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
         << "  \"neighbor_rebuilds\": " << totals.neighbor_rebuilds << ",\n"
         << "  \"neighbor_prunes\": " << totals.neighbor_prunes << ",\n"
         << "  \"neighbor_build_seconds\": " << number(totals.neighbor_build_seconds) << ",\n"
+        << "  \"mesh_seconds\": " << number(totals.mesh_seconds) << ",\n"
         << "  \"mean_iterations\": " << number(totals.solver_iterations / steps);
     for (const auto& [key, value] : platform_) out << ",\n  \"" << key << "\": \"" << value << "\"";
     for (std::size_t k = 0; k < diagnostics_.size(); ++k)

@@ -286,14 +286,18 @@ EwaldMeshTerm::~EwaldMeshTerm() = default;
 double EwaldMeshTerm::net_charge_energy() const { return setup_->net_charge_energy; }
 
 void EwaldMeshTerm::add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how) {
+  const double start = omp_get_wtime();
   const bool single = mixed_ || how.single_precision;
   const double e = made(single ? single_ : double_, single, setup_).add_forces(q, f, !energies.empty());
   if (!energies.empty()) energies[0] += e + setup_->net_charge_energy;
+  seconds_ += omp_get_wtime() - start;
 }
 
 void EwaldMeshTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how) {
+  const double start = omp_get_wtime();
   const bool single = mixed_ || how.single_precision;
   made(single ? single_ : double_, single, setup_).add_hessian_vector(q, u, out);
+  seconds_ += omp_get_wtime() - start;
 }
 
 void EwaldMeshTerm::add_single_point(const Coords& q, Coords& f, std::span<double> energies) const {

@@ -44,10 +44,13 @@ class EwaldMeshTerm : public ForceTerm {
   ~EwaldMeshTerm() override;
 
   std::vector<std::string> energy_names() const override { return {"coulomb_recip"}; }
+  // GROMACS's Coul. recip. is a part of the Coulomb energy.
+  std::vector<std::string> energy_part_of() const override { return {"coulomb"}; }
   void add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how = {}) override;
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how = {}) override;
   void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const override;
   bool has_single_precision() const override { return true; }
+  void add_work(WorkCounters& counters) const override { counters.mesh_seconds += seconds_; }
 
   // −π f Q² / (2 V β² ε_r): constant, included in the energy.
   double net_charge_energy() const;
@@ -55,6 +58,7 @@ class EwaldMeshTerm : public ForceTerm {
  private:
   std::shared_ptr<const EwaldMeshSetup> setup_;
   bool mixed_;
+  double seconds_ = 0;  // wall time of the evaluations (add_single_point's not counted: an observation)
   // Made at first use.
   std::unique_ptr<EwaldMesh> double_, single_;
 };

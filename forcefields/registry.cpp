@@ -1,6 +1,7 @@
 #include "forcefields/registry.hpp"
 
 #include "forcefields/ewald.hpp"
+#include "forcefields/ewald_mesh.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
@@ -8,13 +9,19 @@
 namespace vimd {
 
 // Every term is always present (energies lj, coulomb, bonds, angles are always reported, 0 when
-// a system has nothing for a term), so output columns do not depend on the system.
+// a system has nothing for a term), so output columns do not depend on the system; PME's mesh
+// (coulomb_recip, a part of coulomb) comes with coulomb = "pme".
 std::unique_ptr<ForceField> make_force_field(const System& system, const ForceFieldConfig& config) {
   auto field = std::make_unique<ForceField>();
   field->add(std::make_unique<NonbondedPairTerm>(system, config));
   field->add(std::make_unique<HarmonicBondTerm>(system.bonds, system.box));
   field->add(std::make_unique<HarmonicAngleTerm>(system.angles, system.box));
-  if (config.coulomb == "pme") pme_grid_size(config, system.box);  // checks the grid; the mesh term is next
+  if (config.coulomb == "pme") {
+    const EwaldRealSpace real_space = EwaldRealSpace::from_config(config);
+    field->add(std::make_unique<EwaldMeshTerm>(
+        system, EwaldMeshParameters{pme_grid_size(config, system.box), config.pme_order, real_space.beta, real_space.prefactor},
+        config.precision == "mixed"));
+  }
   return field;
 }
 

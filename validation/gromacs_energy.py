@@ -58,7 +58,8 @@ def compare(system, label, cutoff, ff, work):
     gmx_forces = MDAnalysis.Universe(str(src / "conf.gro"), str(work / "rerun.trr"), convert_units=False).trajectory[0].forces
     vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top", dict(cutoff=cutoff, neighbor_skin=SKIN, **ff))
     v = json.loads(vimd("energy", work / "run.toml", "--json"))
-    vimd_forces = np.array(vimd_module.Simulation(str(work / "run.toml")).forces())
+    # (the module wants velocities for a run; the forces do not depend on them)
+    vimd_forces = np.array(vimd_module.Simulation(str(work / "run.toml"), temperature=300.0).forces())
     gmx_coulomb = g["Coulomb (SR)"] + g.get("Coul. recip.", 0.0)
     rows = [("LJ", g["LJ (SR)"], v["lj"]), ("Coulomb", gmx_coulomb, v["coulomb"]), ("Potential", g["Potential"], v["potential"])]
     if ff["coulomb"] == "pme":
