@@ -2,16 +2,22 @@
 """Single-point energies of vimd against `gmx_d mdrun -rerun` on the same structure and topology.
 
 For each water box and each non-bonded setting, prints LJ, Coulomb and potential energy side by
-side with the relative difference, and exits non-zero if any differs by more than 1e-6.
-Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900]
+side with the relative difference. For each molecule box (validation/molecules/: OPLS-AA hexanes;
+a molecule with every dihedral function and parameter lookup) it compares every energy term and
+the forces (RMS of the force difference over the RMS force). Exits non-zero if any differs by more
+than 1e-6.
+Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900] [--molecules hexane8 torsions]
 """
 import argparse
 import json
+import os
 import sys
 import tempfile
 import pathlib
 
 from gmx_common import ROOT, run, write_mdp, nonbonded_mdp, gmx_energy, vimd_config, vimd
+
+sys.path.insert(0, str(ROOT / "build" / "python"))
 
 SETTINGS = [
     ("potential-shift, RF eps_rf=0", dict(vdw_modifier="potential-shift", vdw_switch=0.0, epsilon_rf=0)),
@@ -42,16 +48,67 @@ def compare(system, label, s, work):
     return rows
 
 
+# vimd's energy terms as sums of GROMACS's: "dihedrals" holds the proper kinds, "impropers" both
+# improper kinds. Terms a system lacks are absent from the .edr (and count as 0).
+MOLECULE_TERMS = [
+    ("bonds", ["Bond"]),
+    ("angles", ["Angle"]),
+    ("dihedrals", ["Proper Dih.", "Ryckaert-Bell.", "Fourier Dih."]),
+    ("impropers", ["Improper Dih.", "Per. Imp. Dih."]),
+    ("lj14", ["LJ-14"]),
+    ("coulomb14", ["Coulomb-14"]),
+    ("lj", ["LJ (SR)"]),
+    ("coulomb", ["Coulomb (SR)"]),
+    ("potential", ["Potential"]),
+]
+
+
+def compare_molecules(system, work):
+    """Every energy term and the forces of a molecule box, reaction field with eps_rf = infinity."""
+    import MDAnalysis
+    import numpy as np
+    import vimd as vimd_module
+    src = ROOT / "validation" / "molecules" / system
+    work.mkdir(parents=True, exist_ok=True)
+    write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1,
+              **nonbonded_mdp(CUTOFF, "potential-shift", 0.0, 0))
+    run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
+    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-e", "rerun.edr", "-g", "rerun.log",
+         "-o", "rerun.trr"], work)
+    names = sorted({g for _, gs in MOLECULE_TERMS for g in gs})
+    g = gmx_energy("gmx_d", "rerun.edr", [n.replace(" ", "-") for n in names], work)
+    vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top",
+                dict(cutoff=CUTOFF, vdw_modifier="potential-shift", coulomb="reaction-field", epsilon_rf=0,
+                     neighbor_skin=0.1),
+                integrator=dict(temperature=300.0))  # a Simulation wants velocities; the forces do not
+    v = json.loads(vimd("energy", work / "run.toml", "--json"))
+    rows = []
+    for vkey, gkeys in MOLECULE_TERMS:
+        ref, got = sum(g[k][0] for k in gkeys if k in g), v[vkey]
+        rows.append((system, "RF eps_rf=0, all terms", vkey, ref, got, abs(got - ref) / max(abs(ref), 1e-300)))
+    # MDAnalysis gives forces in kJ/mol/Å.
+    reference = MDAnalysis.Universe(str(work / "rerun.tpr"), str(work / "rerun.trr")).trajectory[0].forces * 10.0
+    forces = np.array(vimd_module.Simulation(str(work / "run.toml")).forces())  # kJ/mol/nm
+    rms = np.sqrt(np.mean(np.sum((forces - reference) ** 2, axis=1)) / np.mean(np.sum(reference ** 2, axis=1)))
+    rows.append((system, "RF eps_rf=0, all terms", "forces", float(np.sqrt(np.mean(np.sum(reference ** 2, axis=1)))),
+                 float(np.sqrt(np.mean(np.sum(forces ** 2, axis=1)))), float(rms)))
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--systems", nargs="+", default=["water216", "water900"])
+    ap.add_argument("--systems", nargs="*", default=["water216", "water900"])
+    ap.add_argument("--molecules", nargs="*", default=["hexane8", "torsions"])
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for system in args.systems:
             for k, (label, s) in enumerate(SETTINGS):
                 rows += compare(system, label, s, pathlib.Path(tmp) / f"{system}_{k}")
+        for system in args.molecules:
+            rows += compare_molecules(system, pathlib.Path(tmp) / system)
     print(f"{'system':<10} {'setting':<40} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
+    print("(forces: the RMS force of each, and the RMS of the difference over the RMS force)")
     worst = 0.0
     for system, label, name, ref, got, rel in rows:
         print(f"{system:<10} {label:<40} {name:<10} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
