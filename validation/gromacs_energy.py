@@ -4,9 +4,10 @@
 For each water box and each non-bonded setting, prints LJ, Coulomb and potential energy side by
 side with the relative difference. For each molecule box (validation/molecules/: OPLS-AA hexanes;
 a molecule with every dihedral function and parameter lookup) it compares every energy term and
-the forces (RMS of the force difference over the RMS force). Exits non-zero if any differs by more
-than 1e-6.
-Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900] [--molecules hexane8 torsions]
+the forces (RMS of the force difference over the RMS force), and with constraints = h-bonds the
+number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
+Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900]
+                                                    [--molecules hexane8 hexane8:h-bonds torsions torsions:all-bonds]
 """
 import argparse
 import json
@@ -63,14 +64,34 @@ MOLECULE_TERMS = [
 ]
 
 
-def compare_molecules(system, work):
-    """Every energy term and the forces of a molecule box, reaction field with eps_rf = infinity."""
+def tpr_constraint_count(dump):
+    """The number of constraints in a `gmx dump -s` of a .tpr: per molecule type (its Constraint
+    list holds 3 numbers per constraint) times that type's molecules in each block."""
+    per_type, blocks, moltype, block_type, previous = {}, [], None, None, ""
+    for line in dump.splitlines():
+        words = line.split()
+        if line.startswith("   moltype (") and line.rstrip().endswith("):"):
+            moltype = int(line.split("(")[1].split(")")[0])
+        elif words[:1] == ["moltype"] and "=" in words:
+            block_type = int(words[2])
+        elif words[:1] == ["#molecules"]:
+            blocks.append((block_type, int(words[2])))
+        elif words[:1] == ["nr:"] and previous.strip() == "Constraint:":
+            per_type[moltype] = int(words[1]) // 3
+        previous = line
+    return sum(per_type.get(t, 0) * n for t, n in blocks)
+
+
+def compare_molecules(system, constraints, work):
+    """Every energy term and the forces of a molecule box, reaction field with eps_rf = infinity.
+    With constraints (GROMACS's option) the energies at the given positions and the number of
+    constraints grompp made; not the forces: vimd's Simulation constrains its start first."""
     import MDAnalysis
     import numpy as np
     import vimd as vimd_module
     src = ROOT / "validation" / "molecules" / system
     work.mkdir(parents=True, exist_ok=True)
-    write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1,
+    write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1, constraints=constraints,
               **nonbonded_mdp(CUTOFF, "potential-shift", 0.0, 0))
     run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
     run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-e", "rerun.edr", "-g", "rerun.log",
@@ -81,16 +102,25 @@ def compare_molecules(system, work):
                 dict(cutoff=CUTOFF, vdw_modifier="potential-shift", coulomb="reaction-field", epsilon_rf=0,
                      neighbor_skin=0.1),
                 integrator=dict(temperature=300.0))  # a Simulation wants velocities; the forces do not
+    text = (work / "run.toml").read_text()
+    (work / "run.toml").write_text(text.replace("[forcefield]", f'constraints = "{constraints}"\n[forcefield]'))
     v = json.loads(vimd("energy", work / "run.toml", "--json"))
+    label = "RF eps_rf=0, all terms" + (f", constraints {constraints}" if constraints != "none" else "")
     rows = []
     for vkey, gkeys in MOLECULE_TERMS:
         ref, got = sum(g[k][0] for k in gkeys if k in g), v[vkey]
-        rows.append((system, "RF eps_rf=0, all terms", vkey, ref, got, abs(got - ref) / max(abs(ref), 1e-300)))
+        rows.append((system, label, vkey, ref, got, abs(got - ref) / max(abs(ref), 1e-300)))
+    if constraints != "none":
+        made = tpr_constraint_count(run(["gmx_d", "dump", "-s", "rerun.tpr"], work))
+        check = vimd("check", work / "run.toml")
+        rigid = int(check.split(" of them bonds made rigid")[0].split()[-1])
+        rows.append((system, label, "constraints", made, rigid, abs(rigid - made) / max(made, 1)))
+        return rows
     # MDAnalysis gives forces in kJ/mol/Å.
     reference = MDAnalysis.Universe(str(work / "rerun.tpr"), str(work / "rerun.trr")).trajectory[0].forces * 10.0
     forces = np.array(vimd_module.Simulation(str(work / "run.toml")).forces())  # kJ/mol/nm
     rms = np.sqrt(np.mean(np.sum((forces - reference) ** 2, axis=1)) / np.mean(np.sum(reference ** 2, axis=1)))
-    rows.append((system, "RF eps_rf=0, all terms", "forces", float(np.sqrt(np.mean(np.sum(reference ** 2, axis=1)))),
+    rows.append((system, label, "forces", float(np.sqrt(np.mean(np.sum(reference ** 2, axis=1)))),
                  float(np.sqrt(np.mean(np.sum(forces ** 2, axis=1)))), float(rms)))
     return rows
 
@@ -98,20 +128,22 @@ def compare_molecules(system, work):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--systems", nargs="*", default=["water216", "water900"])
-    ap.add_argument("--molecules", nargs="*", default=["hexane8", "torsions"])
+    ap.add_argument("--molecules", nargs="*", default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds"],
+                    help="molecule boxes of validation/molecules, each optionally with :constraints")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for system in args.systems:
             for k, (label, s) in enumerate(SETTINGS):
                 rows += compare(system, label, s, pathlib.Path(tmp) / f"{system}_{k}")
-        for system in args.molecules:
-            rows += compare_molecules(system, pathlib.Path(tmp) / system)
-    print(f"{'system':<10} {'setting':<40} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
+        for case in args.molecules:
+            system, _, constraints = case.partition(":")
+            rows += compare_molecules(system, constraints or "none", pathlib.Path(tmp) / case.replace(":", "_"))
+    print(f"{'system':<10} {'setting':<52} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
     print("(forces: the RMS force of each, and the RMS of the difference over the RMS force)")
     worst = 0.0
     for system, label, name, ref, got, rel in rows:
-        print(f"{system:<10} {label:<40} {name:<10} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
+        print(f"{system:<10} {label:<52} {name:<10} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
         worst = max(worst, rel)
     print(f"largest relative difference {worst:.2e} (tolerance {TOLERANCE:g})")
     return 0 if worst < TOLERANCE else 1
