@@ -3,11 +3,12 @@
 
 For each water box and each non-bonded setting, prints LJ, Coulomb and potential energy side by
 side with the relative difference. For each molecule box (validation/molecules/: OPLS-AA hexanes;
-a molecule with every dihedral function and parameter lookup) it compares every energy term and
+a molecule with every dihedral function and parameter lookup; dihedrals whose torsion is undefined)
+it compares every energy term and
 the forces (RMS of the force difference over the RMS force), and with constraints = h-bonds the
 number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
 Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900]
-                                                    [--molecules hexane8 hexane8:h-bonds torsions torsions:all-bonds]
+                                                    [--molecules hexane8 hexane8:h-bonds torsions torsions:all-bonds collinear]
 """
 import argparse
 import json
@@ -119,7 +120,8 @@ def compare_molecules(system, constraints, work):
     # MDAnalysis gives forces in kJ/mol/Å.
     reference = MDAnalysis.Universe(str(work / "rerun.tpr"), str(work / "rerun.trr")).trajectory[0].forces * 10.0
     forces = np.array(vimd_module.Simulation(str(work / "run.toml")).forces())  # kJ/mol/nm
-    rms = np.sqrt(np.mean(np.sum((forces - reference) ** 2, axis=1)) / np.mean(np.sum(reference ** 2, axis=1)))
+    # Relative to the RMS force; absolute where GROMACS's forces are all zero (collinear).
+    rms = np.sqrt(np.mean(np.sum((forces - reference) ** 2, axis=1)) / max(np.mean(np.sum(reference ** 2, axis=1)), 1.0))
     rows.append((system, label, "forces", float(np.sqrt(np.mean(np.sum(reference ** 2, axis=1)))),
                  float(np.sqrt(np.mean(np.sum(forces ** 2, axis=1)))), float(rms)))
     return rows
@@ -128,7 +130,7 @@ def compare_molecules(system, constraints, work):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--systems", nargs="*", default=["water216", "water900"])
-    ap.add_argument("--molecules", nargs="*", default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds"],
+    ap.add_argument("--molecules", nargs="*", default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds", "collinear"],
                     help="molecule boxes of validation/molecules, each optionally with :constraints")
     args = ap.parse_args()
     rows = []
