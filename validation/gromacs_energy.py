@@ -2,13 +2,13 @@
 """Single-point energies of vimd against `gmx_d mdrun -rerun` on the same structure and topology.
 
 For each water box and each non-bonded setting, prints LJ, Coulomb and potential energy side by
-side with the relative difference. For each molecule box (validation/molecules/: OPLS-AA hexanes;
-a molecule with every dihedral function and parameter lookup; dihedrals whose torsion is undefined)
-it compares every energy term and
-the forces (RMS of the force difference over the RMS force), and with constraints = h-bonds the
-number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
+side with the relative difference. For each molecule box of validation/molecules/ (OPLS-AA
+hexanes; a molecule with every dihedral function and parameter lookup; dihedrals whose torsion is
+undefined; an AMBER99SB-ILDN decapeptide) it compares every energy term and the forces (RMS of the
+force difference over the RMS force), and with constraints (GROMACS's option, "hexane8:h-bonds")
+the number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
 Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900]
-                                                    [--molecules hexane8 hexane8:h-bonds torsions torsions:all-bonds collinear]
+                                                    [--molecules hexane8 hexane8:h-bonds ...]
 """
 import argparse
 import json
@@ -130,7 +130,9 @@ def compare_molecules(system, constraints, work):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--systems", nargs="*", default=["water216", "water900"])
-    ap.add_argument("--molecules", nargs="*", default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds", "collinear"],
+    ap.add_argument("--molecules", nargs="*",
+                    default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds", "collinear",
+                             "peptide_amber", "peptide_amber:h-bonds"],
                     help="molecule boxes of validation/molecules, each optionally with :constraints")
     args = ap.parse_args()
     rows = []
@@ -141,11 +143,11 @@ def main():
         for case in args.molecules:
             system, _, constraints = case.partition(":")
             rows += compare_molecules(system, constraints or "none", pathlib.Path(tmp) / case.replace(":", "_"))
-    print(f"{'system':<10} {'setting':<52} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
+    print(f"{'system':<14} {'setting':<52} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
     print("(forces: the RMS force of each, and the RMS of the difference over the RMS force)")
     worst = 0.0
     for system, label, name, ref, got, rel in rows:
-        print(f"{system:<10} {label:<52} {name:<10} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
+        print(f"{system:<14} {label:<52} {name:<10} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
         worst = max(worst, rel)
     print(f"largest relative difference {worst:.2e} (tolerance {TOLERANCE:g})")
     return 0 if worst < TOLERANCE else 1
