@@ -34,7 +34,8 @@ T angle_energy_gradient(const T a[3], const T b[3], double k, double theta0, T g
 HarmonicAngleTerm::HarmonicAngleTerm(std::vector<Angle> angles, const Box& box)
     : angles_(std::move(angles)), box_(box) {}
 
-void HarmonicAngleTerm::add_forces_with(BondedLoop& loop, const Coords& q, Coords& f, std::span<double> energies) const {
+void HarmonicAngleTerm::add_forces_with(BondedLoop& loop, const Coords& q, Coords& f,
+                                        std::span<double> energies) const {
   const double energy = loop.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
     const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));

@@ -482,7 +482,8 @@ class TopologyParser {
         f.error("unknown bonded type '" + name + "' in [ dihedraltypes ] (no [ atomtypes ] entry has it)");
     DihedralType type{atoms, {}, false, f.where()};
     std::tie(type.params, type.perturbed) = dihedral_parameters(f, first, *function);
-    if (type.params.empty()) f.error("[ dihedraltypes ] line without parameters (" + std::string(function->layout) + ")");
+    if (type.params.empty())
+      f.error("[ dihedraltypes ] line without parameters (" + std::string(function->layout) + ")");
     add_dihedraltype(dihedraltypes_[function->table], std::move(type), func == 9, f);
   }
 
@@ -695,7 +696,8 @@ class TopologyParser {
       // Several terms only from a block of function-9 types, and only for a proper dihedral.
       if (function->table != 1) terms.resize(1);
     }
-    if (perturbed) molecule.mark_unsupported(f.where(), "free-energy perturbation (B-state parameters) is not supported");
+    if (perturbed)
+      molecule.mark_unsupported(f.where(), "free-energy perturbation (B-state parameters) is not supported");
     constexpr double deg = std::numbers::pi / 180.0;
     for (const auto& p : terms) {
       switch (function->table) {
