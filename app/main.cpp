@@ -227,9 +227,12 @@ int check_command(const fs::path& config_file) {
               s.type_names.size(), s.charge.sum());
   std::printf("box         %.5f x %.5f x %.5f nm", s.box.length[0], s.box.length[1], s.box.length[2]);
   if (volume > 0) std::printf("  (density %.2f kg/m^3)", mass * 1.66053906660 / volume);
-  std::printf("\ninteractions %zu bonds, %zu angles, %zu constraints in %zu clusters (largest %zu), %zu excluded pairs\n",
-              s.bonds.size(), s.angles.size(), s.constraints.size(), m.constraints.clusters().size(), largest_cluster,
-              excluded_pairs / 2);
+  std::printf("\ninteractions %zu bonds, %zu angles, %zu dihedrals, %zu impropers, %zu 1-4 pairs, %zu excluded pairs\n",
+              s.bonds.size(), s.angles.size(), s.proper_dihedrals.size() + s.rb_dihedrals.size(),
+              s.harmonic_impropers.size() + s.periodic_impropers.size(), s.pairs14.size(), excluded_pairs / 2);
+  std::printf("constraints %zu in %zu clusters (largest %zu); %d of them bonds made rigid (constraints = \"%s\")\n",
+              s.constraints.size(), m.constraints.clusters().size(), largest_cluster, s.bonds_constrained,
+              c.constraints.c_str());
   std::printf("dof         %d\n", s.degrees_of_freedom());
   const bool has_velocities = m.input.state.v.cols() == s.n_atoms();
   std::printf("velocities  %s\n", m.input.velocities_generated ? "generated from [integrator] temperature"

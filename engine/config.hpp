@@ -76,6 +76,7 @@ struct OutputConfig {
 struct RunConfig {
   std::filesystem::path file;  // the TOML file itself
   std::filesystem::path structure, topology;
+  std::string constraints = "none";  // "none" | "h-bonds" | "all-bonds": bonds made rigid, as GROMACS's mdp option
   ForceFieldConfig forcefield;
   IntegratorConfig integrator;
   OutputConfig output;

@@ -130,6 +130,15 @@ std::vector<ConfigKey> make_keys() {
                "GROMACS .top; #include resolves next to the file, then GMXLIB or /usr/share/gromacs/top. Required",
                [](const KeyInput& in, RunConfig& c) { c.topology = in.existing_file(); },
                [](const RunConfig& c) { return c.topology.string(); }});
+  k.push_back({"system",
+               "constraints",
+               "string",
+               {"none", "h-bonds", "all-bonds"},
+               kMustMatch,
+               "bonds made rigid constraints at their b0, as GROMACS's mdp option (h-bonds: bonds to an atom "
+               "whose name starts with H)",
+               [](const KeyInput& in, RunConfig& c) { c.constraints = in.choice(); },
+               [](const RunConfig& c) { return c.constraints; }});
   // --- [forcefield]
   k.push_back(number_key<&RunConfig::forcefield, &ForceFieldConfig::cutoff>(
       "forcefield", "cutoff", "number, nm", kMustMatch, "cut-off of LJ and Coulomb (rvdw = rcoulomb)",
@@ -432,9 +441,17 @@ RunIdentity run_identity(const System& s, const RunConfig& config, long summary_
   for (const Bond& x : s.bonds) topology.add(x.i), topology.add(x.j), topology.add(x.length), topology.add(x.k);
   for (const Angle& x : s.angles)
     topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.theta0), topology.add(x.force_constant);
+  const auto add_atoms = [&](const auto& x) { topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.l); };
+  for (const auto* list : {&s.proper_dihedrals, &s.periodic_impropers})
+    for (const PeriodicDihedral& x : *list)
+      add_atoms(x), topology.add(x.phi_s), topology.add(x.force_constant), topology.add(x.multiplicity);
+  for (const RyckaertBellemansDihedral& x : s.rb_dihedrals) add_atoms(x), topology.add(x.c);
+  for (const HarmonicImproper& x : s.harmonic_impropers) add_atoms(x), topology.add(x.xi0), topology.add(x.force_constant);
+  for (const Pair14& x : s.pairs14) topology.add(x.i), topology.add(x.j), topology.add(x.c6), topology.add(x.c12), topology.add(x.qq);
   RunIdentity identity = {
       {"atoms", std::to_string(s.n_atoms())},
-      {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints)", topology.text()},
+      {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints; dihedrals, 1-4 pairs)",
+       topology.text()},
       {"box", exact_text(s.box.length[0]) + " " + exact_text(s.box.length[1]) + " " + exact_text(s.box.length[2])}};
   for (const ConfigKey& key : config_keys())
     if (key.on_continue == OnContinue::must_match)

@@ -138,7 +138,24 @@ std::optional<std::string> time_step_warning(const System& s, const RunConfig& c
          describe_atom(s, fastest->j) + " oscillates with a period of " + format("%.3g", shortest) +
          " ps, less than 10 times dt = " + format("%g", c.integrator.dt) + " ps set in " + c.file.string() +
          " (" + std::to_string(too_fast) + " unconstrained bond(s) affected): the integration will be inaccurate " +
-         "or unstable; constrain these bonds or use dt <= " + format("%.2g", shortest / 10) + " ps";
+         "or unstable; constrain these bonds ([system] constraints = \"h-bonds\" or \"all-bonds\") or use dt <= " +
+         format("%.2g", shortest / 10) + " ps";
+}
+
+BondConstraints bond_constraints(const RunConfig& c) {
+  if (c.constraints == "h-bonds") return BondConstraints::h_bonds;
+  if (c.constraints == "all-bonds") return BondConstraints::all_bonds;
+  return BondConstraints::none;
+}
+
+// constraints = "h-bonds" on a system without hydrogens is a mistake, not a request for nothing.
+void check_hydrogens(const System& s, const RunConfig& c) {
+  if (c.constraints != "h-bonds") return;
+  if (std::any_of(s.atom_names.begin(), s.atom_names.end(), hydrogen_like)) return;
+  throw InputError(c.file.string(), 0,
+                   "[system] constraints = \"h-bonds\", but no atom of " + c.topology.string() +
+                       " is a hydrogen (grompp's rule: an atom name starting with H), so no bond would become a "
+                       "constraint: use \"all-bonds\" or \"none\"");
 }
 
 }  // namespace
@@ -195,7 +212,8 @@ RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOv
   RunInput in;
   in.config = read_config(config_file, overrides);
   const RunConfig& c = in.config;
-  in.system = read_topology(c.topology);
+  in.system = read_topology(c.topology, bond_constraints(c));
+  check_hydrogens(in.system, c);
   GroFrame frame = read_gro(c.structure);
 
   in.warnings = apply_structure(in.system, frame, c.structure, c.topology);

@@ -1,5 +1,6 @@
 #pragma once
 // The physical system as read from .gro + .top: per-atom data, interaction lists, box.
+#include <array>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,32 @@ struct Angle {  // harmonic in the angle: V = ½ k (θ − theta0)²
   int i, j, k;    // j is the vertex
   double theta0;  // rad
   double force_constant;  // kJ/mol/rad²
+};
+
+// Dihedral angle φ of i-j-k-l (IUPAC/GROMACS sign: the angle between the planes ijk and jkl, 180°
+// trans), for the periodic, harmonic and Ryckaert–Bellemans forms.
+struct PeriodicDihedral {  // V = k (1 + cos(n φ − phi_s)): GROMACS dihedral types 1, 9 (proper) and 4 (improper)
+  int i, j, k, l;
+  double phi_s;         // rad
+  double force_constant;  // kJ/mol
+  int multiplicity;
+};
+
+struct HarmonicImproper {  // V = ½ k (φ − xi0)², φ − xi0 taken in [−π, π): GROMACS dihedral type 2
+  int i, j, k, l;
+  double xi0;             // rad
+  double force_constant;  // kJ/mol/rad²
+};
+
+struct RyckaertBellemansDihedral {  // V = Σ_n c_n cos^n(φ − 180°): GROMACS dihedral types 3 and 5 (converted)
+  int i, j, k, l;
+  std::array<double, 6> c;  // kJ/mol
+};
+
+struct Pair14 {  // 1–4 pair: V = c12/r¹² − c6/r⁶ + fudgeQQ f qi qj/(ε_r r), no cut-off
+  int i, j;
+  double c6, c12;  // kJ/mol nm⁶, kJ/mol nm¹² (fudgeLJ included where generated)
+  double qq;       // fudgeQQ qi qj, e²
 };
 
 struct Constraint {  // |q_i − q_j| = length
@@ -41,7 +68,13 @@ struct System {
 
   std::vector<Bond> bonds;
   std::vector<Angle> angles;
+  std::vector<PeriodicDihedral> proper_dihedrals;  // energy "dihedrals"
+  std::vector<RyckaertBellemansDihedral> rb_dihedrals;  // energy "dihedrals"
+  std::vector<PeriodicDihedral> periodic_impropers;     // energy "impropers"
+  std::vector<HarmonicImproper> harmonic_impropers;     // energy "impropers"
+  std::vector<Pair14> pairs14;
   std::vector<Constraint> constraints;
+  int bonds_constrained = 0;  // of the constraints: bonds made rigid by [system] constraints
   // Per atom: sorted indices of the atoms it has no nonbonded interaction with (both directions).
   std::vector<std::vector<int>> exclusions;
 

@@ -2,26 +2,12 @@
 
 #include <cmath>
 
+#include "forcefields/dual.hpp"
+
 namespace vimd {
 
 namespace {
 
-// Forward-mode dual number: the Hessian–vector product is the exact directional derivative of
-// the analytic gradient below, so the gradient formula is written once.
-struct Dual {
-  double v = 0, d = 0;
-};
-Dual operator+(Dual x, Dual y) { return {x.v + y.v, x.d + y.d}; }
-Dual operator-(Dual x, Dual y) { return {x.v - y.v, x.d - y.d}; }
-Dual operator*(Dual x, Dual y) { return {x.v * y.v, x.d * y.v + x.v * y.d}; }
-Dual operator/(Dual x, Dual y) { return {x.v / y.v, (x.d * y.v - x.v * y.d) / (y.v * y.v)}; }
-Dual operator*(double s, Dual x) { return {s * x.v, s * x.d}; }
-Dual operator-(Dual x, double s) { return {x.v - s, x.d}; }
-Dual sqrt(Dual x) {
-  const double r = std::sqrt(x.v);
-  return {r, x.d / (2 * r)};
-}
-Dual atan2(Dual y, Dual x) { return {std::atan2(y.v, x.v), (x.v * y.d - y.v * x.d) / (x.v * x.v + y.v * y.v)}; }
 using std::atan2;
 using std::sqrt;
 
@@ -48,7 +34,8 @@ T angle_energy_gradient(const T a[3], const T b[3], double k, double theta0, T g
 HarmonicAngleTerm::HarmonicAngleTerm(std::vector<Angle> angles, const Box& box)
     : angles_(std::move(angles)), box_(box) {}
 
-void HarmonicAngleTerm::add_forces(BondedLoop& loop, const Coords& q, Coords& f, std::span<double> energies) const {
+void HarmonicAngleTerm::add_forces_with(BondedLoop& loop, const Coords& q, Coords& f,
+                                        std::span<double> energies) const {
   const double energy = loop.run(static_cast<int>(angles_.size()), f, [&](int n, Coords& out) {
     const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));
@@ -66,8 +53,8 @@ void HarmonicAngleTerm::add_forces(BondedLoop& loop, const Coords& q, Coords& f,
   if (!energies.empty()) energies[0] += energy;
 }
 
-void HarmonicAngleTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation&) {
-  loop_.run(static_cast<int>(angles_.size()), out, [&](int n, Coords& target) {
+void HarmonicAngleTerm::add_hessian_vector_with(BondedLoop& loop, const Coords& q, const Coords& u, Coords& out) const {
+  loop.run(static_cast<int>(angles_.size()), out, [&](int n, Coords& target) {
     const Angle& t = angles_[n];
     const Vec3 va = box_.minimum_image(q.col(t.i) - q.col(t.j));
     const Vec3 vb = box_.minimum_image(q.col(t.k) - q.col(t.j));

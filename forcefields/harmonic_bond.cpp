@@ -6,7 +6,7 @@ namespace vimd {
 
 HarmonicBondTerm::HarmonicBondTerm(std::vector<Bond> bonds, const Box& box) : bonds_(std::move(bonds)), box_(box) {}
 
-void HarmonicBondTerm::add_forces(BondedLoop& loop, const Coords& q, Coords& f, std::span<double> energies) const {
+void HarmonicBondTerm::add_forces_with(BondedLoop& loop, const Coords& q, Coords& f, std::span<double> energies) const {
   const double energy = loop.run(static_cast<int>(bonds_.size()), f, [&](int n, Coords& out) {
     const Bond& b = bonds_[n];
     const Vec3 d = box_.minimum_image(q.col(b.i) - q.col(b.j));
@@ -20,9 +20,9 @@ void HarmonicBondTerm::add_forces(BondedLoop& loop, const Coords& q, Coords& f, 
   if (!energies.empty()) energies[0] += energy;
 }
 
-void HarmonicBondTerm::add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation&) {
+void HarmonicBondTerm::add_hessian_vector_with(BondedLoop& loop, const Coords& q, const Coords& u, Coords& out) const {
   // Radial pair potential φ(r): Hessian block a I + b d dᵀ with a = φ'/r, b = (φ'' − φ'/r)/r².
-  loop_.run(static_cast<int>(bonds_.size()), out, [&](int n, Coords& target) {
+  loop.run(static_cast<int>(bonds_.size()), out, [&](int n, Coords& target) {
     const Bond& b = bonds_[n];
     const Vec3 d = box_.minimum_image(q.col(b.i) - q.col(b.j));
     const double r2 = d.squaredNorm();

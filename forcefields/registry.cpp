@@ -1,21 +1,25 @@
 #include "forcefields/registry.hpp"
 
+#include "forcefields/dihedral_term.hpp"
 #include "forcefields/ewald.hpp"
 #include "forcefields/ewald_mesh.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/pairs_14.hpp"
 
 namespace vimd {
 
-// Every term is always present (energies lj, coulomb, bonds, angles are always reported, 0 when
-// a system has nothing for a term), so output columns do not depend on the system; PME's mesh
-// (coulomb_recip, a part of coulomb) comes with coulomb = "pme".
+// Every term is always present (energies lj, coulomb, bonds, angles, dihedrals, impropers, lj14,
+// coulomb14 are always reported, 0 when a system has nothing for a term), so output columns do not
+// depend on the system; PME's mesh (coulomb_recip, a part of coulomb) comes with coulomb = "pme".
 std::unique_ptr<ForceField> make_force_field(const System& system, const ForceFieldConfig& config) {
   auto field = std::make_unique<ForceField>();
   field->add(std::make_unique<NonbondedPairTerm>(system, config));
   field->add(std::make_unique<HarmonicBondTerm>(system.bonds, system.box));
   field->add(std::make_unique<HarmonicAngleTerm>(system.angles, system.box));
+  field->add(std::make_unique<DihedralTerm>(system));
+  field->add(std::make_unique<Pair14Term>(system.pairs14, system.box, config));
   if (config.coulomb == "pme") {
     const EwaldRealSpace real_space = EwaldRealSpace::from_config(config);
     field->add(std::make_unique<EwaldMeshTerm>(

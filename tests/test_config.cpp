@@ -22,6 +22,7 @@ const fs::path kData = fs::path(VIMD_SOURCE_DIR) / "tests/data";
 TEST(Config, ReadsEveryKey) {
   const RunConfig c = read_config(kConfig / "full.toml");
   EXPECT_EQ(c.file, kConfig / "full.toml");
+  EXPECT_EQ(c.constraints, "h-bonds");
   // Relative paths are relative to the config file's directory.
   EXPECT_EQ(c.structure, (kData / "gro/water2.gro").lexically_normal());
   EXPECT_EQ(c.topology, (kData / "top/spce_opls.top").lexically_normal());
@@ -194,6 +195,7 @@ TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
   const std::map<std::string, ConfigValue> alternative = {
       {"structure", std::string("other.gro")},
       {"topology", std::string("other.top")},
+      {"constraints", std::string("all-bonds")},
       {"cutoff", 1.1},
       {"vdw_modifier", std::string("force-switch")},
       {"vdw_switch", 0.7},

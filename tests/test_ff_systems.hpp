@@ -134,4 +134,47 @@ inline double relative_difference(const Coords& a, const Coords& b) {
   return (a - b).norm() / scale;
 }
 
+
+// Chains of `length` atoms, each a random walk of 0.15 nm bonds with bond angles between 53° and
+// 127°, started anywhere in a periodic box (so that chains straddle its edges), with every dihedral
+// kind on each four consecutive atoms (random parameters) and a 1–4 pair (LJ and charges) for the
+// first and last of them. No bonds, angles or exclusions: the terms under test only.
+inline TestSystem chain_system(int n_chains, int length, const Vec3& box, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  System s;
+  s.title = "chain test system";
+  s.box.length = box;
+  const int n = n_chains * length;
+  s.mass = Eigen::VectorXd::Constant(n, 12.0);
+  s.charge.resize(n);
+  s.exclusions.assign(n, {});
+  Coords q(3, n);
+  const auto random_unit = [&]() { return Vec3(normal(rng), normal(rng), normal(rng)).normalized(); };
+  for (int c = 0; c < n_chains; ++c) {
+    const int first = c * length;
+    q.col(first) = Vec3(uniform(rng) * box[0], uniform(rng) * box[1], uniform(rng) * box[2]);
+    Vec3 previous = random_unit();
+    for (int a = 1; a < length; ++a) {
+      Vec3 next = random_unit();
+      while (std::abs(next.dot(previous)) > 0.6) next = random_unit();
+      q.col(first + a) = q.col(first + a - 1) + 0.15 * next;
+      previous = next;
+    }
+    for (int a = 0; a < length; ++a) s.charge[first + a] = 0.5 * (uniform(rng) - 0.5);
+    for (int a = 0; a + 3 < length; ++a) {
+      const int i = first + a, j = i + 1, k = i + 2, l = i + 3;
+      s.proper_dihedrals.push_back({i, j, k, l, 2 * M_PI * uniform(rng), 1 + 10 * uniform(rng), 1 + a % 4});
+      s.periodic_impropers.push_back({i, j, k, l, M_PI * uniform(rng), 1 + 10 * uniform(rng), 2});
+      s.harmonic_impropers.push_back({i, j, k, l, 2 * M_PI * (uniform(rng) - 0.5), 10 + 50 * uniform(rng)});
+      RyckaertBellemansDihedral rb{i, j, k, l, {}};
+      for (double& cn : rb.c) cn = 10 * (uniform(rng) - 0.5);
+      s.rb_dihedrals.push_back(rb);
+      s.pairs14.push_back({i, l, 1e-3 * (1 + uniform(rng)), 1e-6 * (1 + uniform(rng)), 0.5 * s.charge[i] * s.charge[l]});
+    }
+  }
+  return {std::move(s), std::move(q)};
+}
+
 }  // namespace vimd::testing

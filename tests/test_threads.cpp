@@ -7,9 +7,11 @@
 #include <random>
 
 #include "engine/neighbor_list.hpp"
+#include "forcefields/dihedral_term.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/pairs_14.hpp"
 #include "forcefields/registry.hpp"
 #include "test_ff_systems.hpp"
 
@@ -75,18 +77,31 @@ INSTANTIATE_TEST_SUITE_P(AllModifiersAndCoulombKinds, ThreadAgreement,
                            return name;
                          });
 
-// Bonds and angles go parallel above a few thousand items: check them on their own.
-TEST(ThreadAgreementBonded, BondsAndAnglesAgree) {
-  auto [system, q] = testing::water_like_system(2500, Vec3(4.6, 4.5, 4.7), 79, Vec3::Zero(), 0.25);
+// The bonded terms go parallel above a few thousand items: check them on their own.
+TEST(ThreadAgreementBonded, BondedTermsAgree) {
+  auto [system, positions] = testing::water_like_system(2500, Vec3(4.6, 4.5, 4.7), 79, Vec3::Zero(), 0.25);
   ASSERT_GE(system.angles.size(), 2500u);
   std::mt19937_64 rng(2);
   std::normal_distribution<double> normal(0.0, 1.0);
-  Coords u(3, q.cols());
-  for (int i = 0; i < q.cols(); ++i)
-    for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
+  const auto random_direction = [&](Eigen::Index n) {
+    Coords u(3, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
+    return u;
+  };
+  const Coords water_u = random_direction(positions.cols());
   HarmonicBondTerm bonds(system.bonds, system.box);
   HarmonicAngleTerm angles(system.angles, system.box);
-  for (ForceTerm* term : {static_cast<ForceTerm*>(&bonds), static_cast<ForceTerm*>(&angles)}) {
+  auto [chains, chain_q] = testing::chain_system(700, 7, Vec3(4.0, 4.0, 4.0), 80);
+  ASSERT_GE(chains.pairs14.size(), 2800u);
+  const Coords chain_u = random_direction(chain_q.cols());
+  DihedralTerm dihedrals(chains);
+  Pair14Term pairs(chains.pairs14, chains.box, ForceFieldConfig{});
+  for (ForceTerm* term : {static_cast<ForceTerm*>(&bonds), static_cast<ForceTerm*>(&angles),
+                          static_cast<ForceTerm*>(&dihedrals), static_cast<ForceTerm*>(&pairs)}) {
+    const bool chain = term == &dihedrals || term == &pairs;
+    const Coords& q = chain ? chain_q : positions;
+    const Coords& u = chain ? chain_u : water_u;
     omp_set_num_threads(1);
     const auto one = testing::evaluate(*term, q);
     const Coords hu_one = testing::hessian_vector(*term, q, u);

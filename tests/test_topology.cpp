@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
@@ -251,8 +252,21 @@ TEST(Topology, MalformedInputsNameFileAndLine) {
   const Case cases[] = {
       {"bad_number.top", "bad_number.top", "(parameter) is not a number: '0.1x'"},
       {"unknown_section.top", "unknown_section.top", "unknown section [ atomz ]"},
-      {"pairs_used.top", "pairs_used.top", "1-4 pair interactions ([ pairs ]) are not supported"},
-      {"dihedrals_used.top", "dihedrals_used.top", "dihedrals ([ dihedrals ]) are not supported"},
+      {"pairs_nb_used.top", "pairs_nb_used.top", "nonbonded pair interactions ([ pairs_nb ]) are not supported"},
+      {"dihedral_tabulated.top", "dihedral_tabulated.top", "dihedral function type 8 is not supported"},
+      {"dihedral_no_type.top", "dihedral_no_type.top",
+       "no [ dihedraltypes ] entry of function 5 matches the bonded types CA CX CX CC of atoms 1 (A1), 2 (A2), 3 (A3), "
+       "4 (A4)"},
+      {"dihedral_unknown_function.top", "dihedral_unknown_function.top", "dihedral function type 7 does not exist"},
+      {"dihedral_bad_multiplicity.top", "dihedral_bad_multiplicity.top", "multiplicity 2.5 is not an integer"},
+      {"dihedraltype_second_block.top", "dihedraltype_second_block.top",
+       "a second block of [ dihedraltypes ] function 9 lines for CA CX CX CA"},
+      {"dihedraltype_redefined.top", "dihedraltype_redefined.top",
+       "[ dihedraltypes ] CA CX CX CA redefined with different parameters"},
+      {"dihedraltype_unknown_bonded_type.top", "dihedraltype_unknown_bonded_type.top", "unknown bonded type 'QQ'"},
+      {"pair_no_type.top", "pair_no_type.top",
+       "no parameters for this 1-4 pair: no [ pairtypes ] entry CA CA 1, and [ defaults ] (at "},
+      {"pair_unknown_function.top", "pair_unknown_function.top", "pair function type 3 does not exist"},
       {"morse_used.top", "morse_used.top", "bond function type 3 is not supported"},
       {"vsite_used.top", "vsite_used.top", "particle type D"},
       {"posres_active.top", "posres_active.top", "position restraints"},
@@ -292,12 +306,12 @@ TEST(Topology, MalformedInputsNameFileAndLine) {
 
 TEST(Topology, UnsupportedEntryNamesTheMoleculesLineToo) {
   try {
-    read_topology(kTop / "bad/pairs_used.top");
+    read_topology(kTop / "bad/pairs_nb_used.top");
     ADD_FAILURE() << "no error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("molecule type 'D' (used in [ molecules ] at "), std::string::npos)
         << e.what();
-    EXPECT_NE(std::string(e.what()).find("pairs_used.top:13)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("pairs_nb_used.top:13)"), std::string::npos) << e.what();
   }
 }
 
@@ -310,4 +324,87 @@ TEST(Topology, EmptyMoleculesIsAnError) {
     EXPECT_NE(std::string(e.what()).find("no_molecules.top: no molecules"), std::string::npos) << e.what();
   }
   EXPECT_THROW(read_topology(kTop / "no_such.top"), InputError);
+}
+
+TEST(Topology, DihedralTypesAreLookedUpAsGromppDoes) {
+  const System s = read_topology(kTop / "torsions.top");
+  ASSERT_EQ(s.n_atoms(), 14);
+  const auto rb = [](double c) { return std::array<double, 6>{c, c, c, c, c, c}; };
+  // Fourier F1..F4 = 1, 2, 3, 4 as Ryckaert-Bellemans coefficients (grompp's conversion).
+  const std::array<double, 6> fourier{2 + 0.5 * (1 + 3), 0.5 * (3 * 3 - 1), 4 * 4 - 2, -2 * 3, -4 * 4, 0};
+  const std::vector<std::array<double, 6>> expected_rb = {rb(2), rb(3), rb(3), fourier, fourier};
+  ASSERT_EQ(s.rb_dihedrals.size(), 2 * expected_rb.size());
+  for (std::size_t n = 0; n < expected_rb.size(); ++n) {
+    EXPECT_EQ(s.rb_dihedrals[n].c, expected_rb[n]) << n;
+    EXPECT_EQ(s.rb_dihedrals[n + expected_rb.size()].c, expected_rb[n]) << n;
+  }
+  EXPECT_EQ(std::tie(s.rb_dihedrals[1].i, s.rb_dihedrals[1].j, s.rb_dihedrals[1].k, s.rb_dihedrals[1].l),
+            std::make_tuple(3, 2, 1, 0));
+  EXPECT_EQ(s.rb_dihedrals[5].i, 7);  // the second molecule's atoms
+  // Periodic: (phi_s in degrees, k, multiplicity); the type-9 block gives three terms, to function 1
+  // and 9 alike.
+  const std::vector<std::tuple<double, double, int>> expected_proper = {
+      {0, 7, 2}, {0, 1, 1}, {180, 2, 2}, {0, 3, 3}, {0, 1, 1}, {180, 2, 2}, {0, 3, 3}, {0, 5, 3}, {180, 10, 2}};
+  ASSERT_EQ(s.proper_dihedrals.size(), 2 * expected_proper.size());
+  for (std::size_t n = 0; n < expected_proper.size(); ++n) {
+    const PeriodicDihedral& d = s.proper_dihedrals[n];
+    EXPECT_NEAR(d.phi_s, deg(std::get<0>(expected_proper[n])), 1e-15) << n;
+    EXPECT_EQ(d.force_constant, std::get<1>(expected_proper[n])) << n;
+    EXPECT_EQ(d.multiplicity, std::get<2>(expected_proper[n])) << n;
+  }
+  EXPECT_EQ(std::tie(s.proper_dihedrals[4].i, s.proper_dihedrals[4].l), std::make_tuple(6, 4));
+  ASSERT_EQ(s.harmonic_impropers.size(), 2u);
+  EXPECT_NEAR(s.harmonic_impropers[0].xi0, deg(10), 1e-15);
+  EXPECT_EQ(s.harmonic_impropers[0].force_constant, 40);
+  EXPECT_EQ(std::tie(s.harmonic_impropers[0].i, s.harmonic_impropers[0].l), std::make_tuple(4, 3));
+  ASSERT_EQ(s.periodic_impropers.size(), 2u);
+  EXPECT_NEAR(s.periodic_impropers[0].phi_s, deg(180), 1e-15);
+  EXPECT_EQ(s.periodic_impropers[0].force_constant, 10);
+  EXPECT_EQ(s.periodic_impropers[0].multiplicity, 2);
+}
+
+TEST(Topology, PairsFromGenPairsPairTypesAndInlineWithFudgeQQ) {
+  const System s = read_topology(kTop / "torsions.top");
+  ASSERT_EQ(s.pairs14.size(), 6u);
+  const double sigma_hn = std::sqrt(0.25 * 0.32), eps_hn = std::sqrt(0.12 * 0.70);
+  EXPECT_NEAR(s.pairs14[0].c6, 0.5 * c6_of(sigma_hn, eps_hn), 1e-18);  // generated: fudgeLJ 0.5
+  EXPECT_NEAR(s.pairs14[0].c12, 0.5 * c12_of(sigma_hn, eps_hn), 1e-21);
+  EXPECT_NEAR(s.pairs14[0].qq, 0.8 * 0.05 * -0.20, 1e-16);  // fudgeQQ 0.8
+  EXPECT_NEAR(s.pairs14[1].c6, c6_of(0.31, 0.5), 1e-18);     // [ pairtypes ]: no fudge
+  EXPECT_NEAR(s.pairs14[1].c12, c12_of(0.31, 0.5), 1e-21);
+  EXPECT_NEAR(s.pairs14[1].qq, 0.8 * -0.10 * -0.10, 1e-16);
+  EXPECT_NEAR(s.pairs14[2].c6, c6_of(0.30, 0.40), 1e-18);  // inline
+  EXPECT_NEAR(s.pairs14[2].c12, c12_of(0.30, 0.40), 1e-21);
+  EXPECT_EQ(std::tie(s.pairs14[3].i, s.pairs14[3].j), std::make_tuple(7, 10));
+}
+
+TEST(Topology, NrexclThreeExcludesUpToThreeBondsAway) {
+  const System s = read_topology(kTop / "torsions.top");
+  EXPECT_EQ(s.exclusions[0], (std::vector<int>{1, 2, 3, 5, 6}));  // 1-2, 1-3 (two), 1-4 (two); not 1-5
+  EXPECT_EQ(s.exclusions[4], (std::vector<int>{1, 2, 3, 5}));
+  EXPECT_EQ(s.exclusions[7], (std::vector<int>{8, 9, 10, 12, 13}));
+  expect_exclusions_consistent(s);
+}
+
+TEST(Topology, BondsBecomeConstraintsAsGromppsConstraintsOption) {
+  const System none = read_topology(kTop / "torsions.top");
+  EXPECT_EQ(none.bonds.size(), 12u);
+  EXPECT_TRUE(none.constraints.empty());
+  EXPECT_EQ(none.bonds_constrained, 0);
+  // Hydrogens by name: H1, H2, H3 (bonds 1-2, 3-6, 2-7 of each molecule).
+  const System h = read_topology(kTop / "torsions.top", BondConstraints::h_bonds);
+  EXPECT_EQ(h.bonds.size(), 6u);
+  ASSERT_EQ(h.constraints.size(), 6u);
+  EXPECT_EQ(h.bonds_constrained, 6);
+  EXPECT_EQ(std::tie(h.constraints[0].i, h.constraints[0].j), std::make_tuple(0, 1));
+  EXPECT_DOUBLE_EQ(h.constraints[0].length, 0.109);
+  EXPECT_EQ(std::tie(h.constraints[1].i, h.constraints[1].j), std::make_tuple(2, 5));
+  for (const Bond& b : h.bonds) EXPECT_FALSE(hydrogen_like(h.atom_names[b.i]) || hydrogen_like(h.atom_names[b.j]));
+  EXPECT_EQ(h.exclusions, none.exclusions);  // constrained bonds are still chemical bonds
+  EXPECT_EQ(h.degrees_of_freedom(), none.degrees_of_freedom() - 6);
+  const System all = read_topology(kTop / "torsions.top", BondConstraints::all_bonds);
+  EXPECT_TRUE(all.bonds.empty());
+  EXPECT_EQ(all.constraints.size(), 12u);
+  EXPECT_EQ(all.bonds_constrained, 12);
+  EXPECT_DOUBLE_EQ(all.constraints[3].length, 0.140);
 }

@@ -79,9 +79,9 @@ def read_xvg(path):
 
 
 def gmx_energy(gmx, edr, terms, cwd):
-    """Time series of named energy terms from an .edr file."""
+    """Time series of named energy terms from an .edr file, in full precision (-dp)."""
     out = pathlib.Path(cwd) / "energy_terms.xvg"
-    run([gmx, "energy", "-f", edr, "-o", out], cwd, stdin="\n".join(terms) + "\n\n")
+    run([gmx, "energy", "-f", edr, "-o", out, "-dp"], cwd, stdin="\n".join(terms) + "\n\n")
     legends, cols = read_xvg(out)
     return {name: cols[k + 1] for k, name in enumerate(legends)} | {"time": cols[0]}
 

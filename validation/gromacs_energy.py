@@ -1,25 +1,36 @@
 #!/usr/bin/python3
-"""Single-point energies and forces of vimd against `gmx_d mdrun -rerun` on the same structure and topology.
+"""Single-point energies of vimd against `gmx_d mdrun -rerun` on the same structure and topology.
 
 For each water box and each non-bonded setting (reaction field; PME at pme-order 4 and 8), prints
 LJ, Coulomb (PME: real space + mesh + corrections, GROMACS's Coulomb (SR) + Coul. recip.), the mesh
-part alone, the potential and the RMS force difference relative to the RMS force, and exits
-non-zero if any differs by more than 1e-6.
+part alone, the potential, and the RMS force difference over the RMS force. For each molecule box of validation/molecules/ (OPLS-AA
+hexanes; a molecule with every dihedral function and parameter lookup; dihedrals whose torsion is
+undefined; an AMBER99SB-ILDN decapeptide) it compares every energy term and the forces (RMS of the
+force difference over the RMS force), and with constraints (GROMACS's option, "hexane8:h-bonds")
+the number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
+GROMACS runs with a pair list 0.1 nm longer than the cut-off (with rlist = rc its search can miss
+a pair at the cut-off) and, for PME, with analytical Ewald kernels (GMX_NBNXN_EWALD_ANALYTICAL: its
+default tables carry a force error of ~6e-7 of the RMS force).
 Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900 tip3p_solvated]
+                                                    [--molecules hexane8 hexane8:h-bonds ...]
 """
 import argparse
 import json
+import os
 import sys
 import tempfile
 import pathlib
 
-import MDAnalysis
-import numpy as np
-
 from gmx_common import ROOT, run, write_mdp, nonbonded_mdp, gmx_energy, vimd_config, vimd
+
+import MDAnalysis  # noqa: E402
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "build" / "python"))
 import vimd as vimd_module  # noqa: E402  (the module built next to the vimd program)
+
+# GROMACS's analytical Ewald kernels: its default tables' force error (~6e-7) would hide ours.
+os.environ["GMX_NBNXN_EWALD_ANALYTICAL"] = "1"
 
 PME = dict(ewald_rtol=1e-5, fourier_spacing=0.12)
 # label, cut-off, vimd's [forcefield] keys, the systems it runs on
@@ -37,6 +48,7 @@ SETTINGS = [
      dict(vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="pme", pme_order=8, **PME),
      ["water900", "tip3p_solvated"]),
 ]
+CUTOFF = 0.9  # the molecule boxes'
 # vimd refuses a box shorter than 2 (cut-off + skin), as grompp does with rlist; water216's 1.864 nm
 # box allows a skin of at most 0.032 nm (its run.toml uses 0.03). A single point needs no more.
 SKIN = 0.03
@@ -49,44 +61,126 @@ def compare(system, label, cutoff, ff, work):
     pme = {k: ff[k] for k in ("ewald_rtol", "pme_order", "fourier_spacing") if k in ff}
     write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1,
               **nonbonded_mdp(cutoff, ff["vdw_modifier"], ff["vdw_switch"], ff.get("epsilon_rf", 0),
-                              coulomb=ff["coulomb"], pme=pme))
+                              coulomb=ff["coulomb"], rlist=cutoff + 0.1, pme=pme))
     run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
     run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-notunepme",
          "-e", "rerun.edr", "-g", "rerun.log", "-o", "rerun.trr"], work)
     terms = ["LJ-(SR)", "Coulomb-(SR)", "Potential"] + (["Coul.-recip."] if ff["coulomb"] == "pme" else [])
     g = {k: v[0] for k, v in gmx_energy("gmx_d", "rerun.edr", terms, work).items()}
-    gmx_forces = MDAnalysis.Universe(str(src / "conf.gro"), str(work / "rerun.trr"), convert_units=False).trajectory[0].forces
-    vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top", dict(cutoff=cutoff, neighbor_skin=SKIN, **ff))
+    gmx_forces = MDAnalysis.Universe(str(src / "conf.gro"), str(work / "rerun.trr"),
+                                     convert_units=False).trajectory[0].forces.astype(float)
+    vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top", dict(cutoff=cutoff, neighbor_skin=SKIN, **ff),
+                integrator=dict(temperature=300.0))  # a Simulation wants velocities; the forces do not
     v = json.loads(vimd("energy", work / "run.toml", "--json"))
-    # (the module wants velocities for a run; the forces do not depend on them)
-    vimd_forces = np.array(vimd_module.Simulation(str(work / "run.toml"), temperature=300.0).forces())
+    vimd_forces = np.array(vimd_module.Simulation(str(work / "run.toml")).forces())
     gmx_coulomb = g["Coulomb (SR)"] + g.get("Coul. recip.", 0.0)
     rows = [("LJ", g["LJ (SR)"], v["lj"]), ("Coulomb", gmx_coulomb, v["coulomb"]), ("Potential", g["Potential"], v["potential"])]
     if ff["coulomb"] == "pme":
         rows.append(("Coul. recip.", g["Coul. recip."], v["coulomb_recip"]))
     out = [(system, label, name, ref, got, abs(got - ref) / abs(ref)) for name, ref, got in rows]
+    rms_ref = np.sqrt(np.mean(np.sum(gmx_forces ** 2, axis=1)))
     rms = np.sqrt(np.mean(np.sum((vimd_forces - gmx_forces) ** 2, axis=1)))
-    rms_ref = np.sqrt(np.mean(np.sum(gmx_forces.astype(float) ** 2, axis=1)))
-    out.append((system, label, "forces RMS", rms_ref, rms, rms / rms_ref))
+    out.append((system, label, "forces", rms_ref, float(np.sqrt(np.mean(np.sum(vimd_forces ** 2, axis=1)))), rms / rms_ref))
     return out
+
+
+# vimd's energy terms as sums of GROMACS's: "dihedrals" holds the proper kinds, "impropers" both
+# improper kinds. Terms a system lacks are absent from the .edr (and count as 0).
+MOLECULE_TERMS = [
+    ("bonds", ["Bond"]),
+    ("angles", ["Angle"]),
+    ("dihedrals", ["Proper Dih.", "Ryckaert-Bell.", "Fourier Dih."]),
+    ("impropers", ["Improper Dih.", "Per. Imp. Dih."]),
+    ("lj14", ["LJ-14"]),
+    ("coulomb14", ["Coulomb-14"]),
+    ("lj", ["LJ (SR)"]),
+    ("coulomb", ["Coulomb (SR)"]),
+    ("potential", ["Potential"]),
+]
+
+
+def tpr_constraint_count(dump):
+    """The number of constraints in a `gmx dump -s` of a .tpr: per molecule type (its Constraint
+    list holds 3 numbers per constraint) times that type's molecules in each block."""
+    per_type, blocks, moltype, block_type, previous = {}, [], None, None, ""
+    for line in dump.splitlines():
+        words = line.split()
+        if line.startswith("   moltype (") and line.rstrip().endswith("):"):
+            moltype = int(line.split("(")[1].split(")")[0])
+        elif words[:1] == ["moltype"] and "=" in words:
+            block_type = int(words[2])
+        elif words[:1] == ["#molecules"]:
+            blocks.append((block_type, int(words[2])))
+        elif words[:1] == ["nr:"] and previous.strip() == "Constraint:":
+            per_type[moltype] = int(words[1]) // 3
+        previous = line
+    return sum(per_type.get(t, 0) * n for t, n in blocks)
+
+
+def compare_molecules(system, constraints, work):
+    """Every energy term and the forces of a molecule box, reaction field with eps_rf = infinity.
+    With constraints (GROMACS's option) the energies at the given positions and the number of
+    constraints grompp made; not the forces: vimd's Simulation constrains its start first."""
+    src = ROOT / "validation" / "molecules" / system
+    work.mkdir(parents=True, exist_ok=True)
+    write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1, constraints=constraints,
+              **nonbonded_mdp(CUTOFF, "potential-shift", 0.0, 0))
+    run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
+    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-e", "rerun.edr", "-g", "rerun.log",
+         "-o", "rerun.trr"], work)
+    names = sorted({g for _, gs in MOLECULE_TERMS for g in gs})
+    g = gmx_energy("gmx_d", "rerun.edr", [n.replace(" ", "-") for n in names], work)
+    vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top",
+                dict(cutoff=CUTOFF, vdw_modifier="potential-shift", coulomb="reaction-field", epsilon_rf=0,
+                     neighbor_skin=0.1),
+                integrator=dict(temperature=300.0))  # a Simulation wants velocities; the forces do not
+    text = (work / "run.toml").read_text()
+    (work / "run.toml").write_text(text.replace("[forcefield]", f'constraints = "{constraints}"\n[forcefield]'))
+    v = json.loads(vimd("energy", work / "run.toml", "--json"))
+    label = "RF eps_rf=0, all terms" + (f", constraints {constraints}" if constraints != "none" else "")
+    rows = []
+    for vkey, gkeys in MOLECULE_TERMS:
+        ref, got = sum(g[k][0] for k in gkeys if k in g), v[vkey]
+        rows.append((system, label, vkey, ref, got, abs(got - ref) / max(abs(ref), 1e-300)))
+    if constraints != "none":
+        made = tpr_constraint_count(run(["gmx_d", "dump", "-s", "rerun.tpr"], work))
+        check = vimd("check", work / "run.toml")
+        rigid = int(check.split(" of them bonds made rigid")[0].split()[-1])
+        rows.append((system, label, "constraints", made, rigid, abs(rigid - made) / max(made, 1)))
+        return rows
+    # MDAnalysis gives forces in kJ/mol/Å.
+    reference = MDAnalysis.Universe(str(work / "rerun.tpr"), str(work / "rerun.trr")).trajectory[0].forces * 10.0
+    forces = np.array(vimd_module.Simulation(str(work / "run.toml")).forces())  # kJ/mol/nm
+    # Relative to the RMS force; absolute where GROMACS's forces are all zero (collinear).
+    rms = np.sqrt(np.mean(np.sum((forces - reference) ** 2, axis=1)) / max(np.mean(np.sum(reference ** 2, axis=1)), 1.0))
+    rows.append((system, label, "forces", float(np.sqrt(np.mean(np.sum(reference ** 2, axis=1)))),
+                 float(np.sqrt(np.mean(np.sum(forces ** 2, axis=1)))), float(rms)))
+    return rows
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--systems", nargs="+", default=["water216", "water900", "tip3p_solvated"])
+    ap.add_argument("--systems", nargs="*", default=["water216", "water900", "tip3p_solvated"])
+    ap.add_argument("--molecules", nargs="*",
+                    default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds", "collinear",
+                             "peptide_amber", "peptide_amber:h-bonds"],
+                    help="molecule boxes of validation/molecules, each optionally with :constraints")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for k, (label, cutoff, ff, systems) in enumerate(SETTINGS):
-            for system in systems:
-                if system in args.systems:
+        for system in args.systems:
+            for k, (label, cutoff, ff, systems) in enumerate(SETTINGS):
+                if system in systems:
                     rows += compare(system, label, cutoff, ff, pathlib.Path(tmp) / f"{system}_{k}")
-    print(f"{'system':<15} {'setting':<46} {'term':<12} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
+        for case in args.molecules:
+            system, _, constraints = case.partition(":")
+            rows += compare_molecules(system, constraints or "none", pathlib.Path(tmp) / case.replace(":", "_"))
+    print(f"{'system':<14} {'setting':<52} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
+    print("(forces: the RMS force of each, and the RMS of the difference over the RMS force)")
     worst = 0.0
     for system, label, name, ref, got, rel in rows:
-        print(f"{system:<15} {label:<46} {name:<12} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
+        print(f"{system:<14} {label:<52} {name:<10} {ref:>20.8f} {got:>20.8f} {rel:>10.1e}")
         worst = max(worst, rel)
-    print("forces RMS: the RMS force of gmx_d, then the RMS of the difference")
     print(f"largest relative difference {worst:.2e} (tolerance {TOLERANCE:g})")
     return 0 if worst < TOLERANCE else 1
 

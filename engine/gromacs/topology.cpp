@@ -74,7 +74,12 @@ struct MoleculeType {
   std::vector<MoleculeAtom> atoms;
   std::vector<Bond> bonds;
   std::vector<Angle> angles;
+  std::vector<PeriodicDihedral> proper_dihedrals, periodic_impropers;
+  std::vector<RyckaertBellemansDihedral> rb_dihedrals;
+  std::vector<HarmonicImproper> harmonic_impropers;
+  std::vector<Pair14> pairs14;
   std::vector<Constraint> constraints;
+  int bonds_constrained = 0;  // of the constraints: bonds made rigid by the constraints option
   std::vector<Where> constraint_lines;  // per constraint: the [ constraints ] or [ settles ] line
   std::vector<std::pair<int, int>> chemical_bonds;  // the graph nrexcl counts along
   std::vector<std::pair<int, int>> explicit_exclusions;
@@ -84,6 +89,38 @@ struct MoleculeType {
     if (!unsupported) unsupported = Unsupported{where, what};
   }
 };
+
+// A [ dihedraltypes ] line as grompp keeps it: bonded type names ("X": any), and the A-state
+// parameters; `perturbed` when a B state differs (free-energy perturbation, refused where used).
+struct DihedralType {
+  std::array<std::string, 4> atoms;
+  std::vector<double> params;
+  bool perturbed = false;
+  Where where;
+};
+
+// GROMACS's dihedral function types: the parameter table a type's [ dihedraltypes ] go to (9
+// shares type 1's), and the number of A- and B-state parameters.
+struct DihedralFunction {
+  int table;
+  std::size_t n_a, n_b;
+  const char* layout;
+};
+
+std::optional<DihedralFunction> dihedral_function(long func) {
+  switch (func) {
+    case 1:
+    case 9: return DihedralFunction{1, 3, 2, "phi_s k multiplicity"};
+    case 2: return DihedralFunction{2, 2, 2, "xi0 k"};
+    case 3: return DihedralFunction{3, 6, 6, "C0 C1 C2 C3 C4 C5"};
+    case 4: return DihedralFunction{4, 3, 2, "phi_s k multiplicity"};
+    case 5: return DihedralFunction{5, 4, 4, "F1 F2 F3 F4"};
+    default: return std::nullopt;
+  }
+}
+
+// Dihedral function types GROMACS has but vimd does not compute: tabulated, restricted, CBT.
+bool dihedral_function_unsupported(long func) { return func == 8 || func == 10 || func == 11; }
 
 struct MoleculeCount {
   int type;
@@ -107,11 +144,15 @@ enum class Section {
   BondTypes,
   ConstraintTypes,
   AngleTypes,
+  PairTypes,
+  DihedralTypes,
   IgnoredTypes,
   MoleculeType,
   Atoms,
   Bonds,
   Angles,
+  Dihedrals,
+  Pairs,
   Constraints,
   Settles,
   Exclusions,
@@ -133,9 +174,9 @@ const std::map<std::string, SectionInfo>& section_table() {
       {"bondtypes", {Section::BondTypes}},
       {"constrainttypes", {Section::ConstraintTypes}},
       {"angletypes", {Section::AngleTypes}},
+      {"pairtypes", {Section::PairTypes}},
+      {"dihedraltypes", {Section::DihedralTypes}},
       // Parameter tables only matter through interactions that use them, which are refused.
-      {"pairtypes", {Section::IgnoredTypes}},
-      {"dihedraltypes", {Section::IgnoredTypes}},
       {"cmaptypes", {Section::IgnoredTypes}},
       {"implicit_genborn_params", {Section::IgnoredTypes}},
       {"implicit_surface_params", {Section::IgnoredTypes}},
@@ -146,9 +187,9 @@ const std::map<std::string, SectionInfo>& section_table() {
       {"constraints", {Section::Constraints}},
       {"settles", {Section::Settles}},
       {"exclusions", {Section::Exclusions}},
-      {"pairs", {Section::UnsupportedInteraction, "1-4 pair interactions ([ pairs ])"}},
+      {"pairs", {Section::Pairs}},
       {"pairs_nb", {Section::UnsupportedInteraction, "nonbonded pair interactions ([ pairs_nb ])"}},
-      {"dihedrals", {Section::UnsupportedInteraction, "dihedrals ([ dihedrals ])"}},
+      {"dihedrals", {Section::Dihedrals}},
       {"cmap", {Section::UnsupportedInteraction, "CMAP corrections ([ cmap ])"}},
       {"position_restraints", {Section::UnsupportedInteraction, "position restraints ([ position_restraints ])"}},
       {"distance_restraints", {Section::UnsupportedInteraction, "distance restraints ([ distance_restraints ])"}},
@@ -233,7 +274,8 @@ class Fields {
 
 class TopologyParser {
  public:
-  explicit TopologyParser(const fs::path& top) : top_(top), pre_(top, gromacs_library_dirs()) {}
+  TopologyParser(const fs::path& top, BondConstraints bond_constraints)
+      : top_(top), pre_(top, gromacs_library_dirs()), bond_constraints_(bond_constraints) {}
 
   System parse() {
     LogicalLine line;
@@ -277,11 +319,15 @@ class TopologyParser {
       case Section::BondTypes: bondtype(f); break;
       case Section::ConstraintTypes: constrainttype(f); break;
       case Section::AngleTypes: angletype(f); break;
+      case Section::PairTypes: pairtype(f); break;
+      case Section::DihedralTypes: dihedraltype(f); break;
       case Section::IgnoredTypes: break;
       case Section::MoleculeType: moleculetype(f); break;
       case Section::Atoms: atom(f); break;
       case Section::Bonds: bond(f); break;
       case Section::Angles: angle(f); break;
+      case Section::Dihedrals: dihedral(f); break;
+      case Section::Pairs: pair(f); break;
       case Section::Constraints: constraint(f); break;
       case Section::Settles: settle(f); break;
       case Section::Exclusions: exclusion(f); break;
@@ -302,6 +348,10 @@ class TopologyParser {
     if (rule < 1 || rule > 3) f.error("comb-rule " + f[1] + " is not one of 1, 2, 3");
     comb_rule_ = static_cast<int>(rule);
     defaults_where_ = f.where();
+    // As grompp: gen-pairs is yes when the word starts with Y or y; the fudges default to 1.
+    if (f.size() > 2) gen_pairs_ = std::toupper(static_cast<unsigned char>(f[2][0])) == 'Y';
+    if (f.size() > 3) fudge_lj_ = f.number(3, "fudgeLJ");
+    if (f.size() > 4) fudge_qq_ = f.number(4, "fudgeQQ");
   }
 
   // GROMACS allows the bonded type and the atomic number columns to be absent; the position of
@@ -334,6 +384,7 @@ class TopologyParser {
       f.error(std::string(*comb_rule_ == 1 ? "c6 and c12" : "epsilon") + " must not be negative");
     const auto [it, inserted] = atomtype_index_.try_emplace(type.name, static_cast<int>(atomtypes_.size()));
     if (inserted) {
+      bonded_names_.insert(type.bonded_name);
       atomtypes_.push_back(type);
       return;
     }
@@ -389,6 +440,98 @@ class TopologyParser {
     auto key = f[0] <= f[2] ? std::array{f[0], f[1], f[2]} : std::array{f[2], f[1], f[0]};
     define_parameters(angletypes_, key, std::pair{f.number(4, "theta0"), f.number(5, "k")}, f.where(),
                       "[ angletypes ] " + f[0] + " " + f[1] + " " + f[2]);
+  }
+
+  // Keyed by (nonbonded) atom type names, as grompp's pair parameters.
+  void pairtype(const Fields& f) {
+    f.require(3, "type_i type_j func parameters");
+    if (f.integer(2, "func") != 1) return;  // function 2 pairs are refused where they occur
+    f.require(5, "type_i type_j 1 V W");
+    const auto& a = atomtype_named(f, 0);
+    const auto& b = atomtype_named(f, 1);
+    define_parameters(pairtypes_, ordered(a.name, b.name), std::pair{f.number(3, "V"), f.number(4, "W")}, f.where(),
+                      "[ pairtypes ] " + a.name + " " + b.name);
+  }
+
+  // Either "ai aj func params" (two bonded types: the middle ones of a proper dihedral, the outer
+  // ones of a type-2 improper, the others "X") or "ai aj ak al func params", as grompp's
+  // push_dihedraltype. Every line is kept twice, forward and reversed, in grompp's order: the
+  // lookup's order is grompp's.
+  void dihedraltype(const Fields& f) {
+    const auto is_function = [&](std::size_t k) {
+      return f.size() > k && f[k].size() == 1 && std::isdigit(static_cast<unsigned char>(f[k][0]));
+    };
+    std::array<std::string, 4> atoms;
+    std::size_t first;
+    if (is_function(2)) {
+      atoms = f[2] == "2" ? std::array{f[0], std::string("X"), std::string("X"), f[1]}
+                          : std::array{std::string("X"), f[0], f[1], std::string("X")};
+      first = 3;
+    } else if (is_function(4)) {
+      atoms = {f[0], f[1], f[2], f[3]};
+      first = 5;
+    } else {
+      f.error("[ dihedraltypes ] line needs 2 or 4 bonded type names followed by a function type (one digit)");
+    }
+    const long func = f.integer(first - 1, "func");
+    if (dihedral_function_unsupported(func)) return;  // refused where a dihedral uses it
+    const auto function = dihedral_function(func);
+    if (!function) f.error("dihedral function type " + f[first - 1] + " does not exist (1, 2, 3, 4, 5, 8, 9, 10, 11)");
+    for (const std::string& name : atoms)
+      if (name != "X" && !bonded_names_.count(name))
+        f.error("unknown bonded type '" + name + "' in [ dihedraltypes ] (no [ atomtypes ] entry has it)");
+    DihedralType type{atoms, {}, false, f.where()};
+    std::tie(type.params, type.perturbed) = dihedral_parameters(f, first, *function);
+    if (type.params.empty())
+      f.error("[ dihedraltypes ] line without parameters (" + std::string(function->layout) + ")");
+    add_dihedraltype(dihedraltypes_[function->table], std::move(type), func == 9, f);
+  }
+
+  // grompp's push_bondtype for dihedrals: a line with the atoms of an earlier one (either
+  // direction) and the same parameters is dropped; with other parameters it is an error (grompp's
+  // warning, fatal without -maxwarn), except for type 9, where lines for the same atoms next to
+  // each other add terms.
+  static void add_dihedraltype(std::vector<DihedralType>& table, DihedralType type, bool allow_repeat, const Fields& f) {
+    const bool continues_block = allow_repeat && table.size() > 1 && table[table.size() - 2].atoms == type.atoms;
+    std::array<std::string, 4> reversed{type.atoms[3], type.atoms[2], type.atoms[1], type.atoms[0]};
+    bool add = true;
+    for (const DihedralType& old : table) {
+      if (old.atoms != type.atoms && old.atoms != reversed) continue;
+      const bool identical = old.params == type.params && old.perturbed == type.perturbed;
+      if (!allow_repeat || identical) add = false;
+      if (identical) continue;
+      if (!allow_repeat)
+        f.error("[ dihedraltypes ] " + old.atoms[0] + " " + old.atoms[1] + " " + old.atoms[2] + " " + old.atoms[3] +
+                " redefined with different parameters (first defined at " + old.where.str() +
+                "); use function 9 for several terms, on consecutive lines");
+      if (!continues_block)
+        f.error("a second block of [ dihedraltypes ] function 9 lines for " + type.atoms[0] + " " + type.atoms[1] + " " +
+                type.atoms[2] + " " + type.atoms[3] + " (the first at " + old.where.str() +
+                "): grompp only combines consecutive lines");
+    }
+    if (!add) return;
+    DihedralType back = type;
+    back.atoms = reversed;
+    table.push_back(std::move(type));
+    table.push_back(std::move(back));
+  }
+
+  // Parameters from field `first` on: n_a A-state values, optionally followed by n_b B-state ones
+  // (which, differing from the A state's first n_b, mark free-energy perturbation). Empty if none.
+  static std::pair<std::vector<double>, bool> dihedral_parameters(const Fields& f, std::size_t first,
+                                                                  const DihedralFunction& function) {
+    auto values = f.numbers_from(first, "parameter");
+    if (values.empty()) return {};
+    if (values.size() != function.n_a && values.size() != function.n_a + function.n_b)
+      f.error("expected " + std::to_string(function.n_a) + " parameters (" + function.layout + "), or " +
+              std::to_string(function.n_a + function.n_b) + " with the B state, found " + std::to_string(values.size()));
+    const bool perturbed = values.size() > function.n_a &&
+                           !std::equal(values.begin() + function.n_a, values.end(), values.begin());
+    values.resize(function.n_a);
+    if (function.table == 1 || function.table == 4) {
+      if (values[2] != std::round(values[2])) f.error("multiplicity " + format_number(values[2]) + " is not an integer");
+    }
+    return {values, perturbed};
   }
 
   void moleculetype(const Fields& f) {
@@ -484,8 +627,18 @@ class TopologyParser {
     if ((*params)[0] < 0 || (*params)[1] < 0)
       f.error("bond length b0 and force constant kb must not be negative (b0 " + format_number((*params)[0]) + " nm, kb " +
               format_number((*params)[1]) + " kJ/mol/nm^2)");
-    molecule.bonds.push_back({i, j, (*params)[0], (*params)[1]});
     molecule.chemical_bonds.emplace_back(i, j);
+    const bool rigid = bond_constraints_ == BondConstraints::all_bonds ||
+                       (bond_constraints_ == BondConstraints::h_bonds &&
+                        (hydrogen_like(molecule.atoms[i].name) || hydrogen_like(molecule.atoms[j].name)));
+    if (!rigid) {
+      molecule.bonds.push_back({i, j, (*params)[0], (*params)[1]});
+      return;
+    }
+    if ((*params)[0] <= 0) f.error("a bond to be made a constraint (option constraints) needs a positive length b0");
+    molecule.constraints.push_back({i, j, (*params)[0]});
+    molecule.constraint_lines.push_back(f.where());
+    ++molecule.bonds_constrained;
   }
 
   void angle(const Fields& f) {
@@ -506,6 +659,141 @@ class TopologyParser {
       params = std::vector{it->second.first.first, it->second.first.second};
     }
     molecule.angles.push_back({i, j, k, (*params)[0] * std::numbers::pi / 180.0, (*params)[1]});
+  }
+
+  void dihedral(const Fields& f) {
+    f.require(5, "ai aj ak al func [parameters]");
+    MoleculeType& molecule = molecules_.back();
+    const std::array<int, 4> a{f.atom(0, molecule), f.atom(1, molecule), f.atom(2, molecule), f.atom(3, molecule)};
+    for (int x = 0; x < 4; ++x)
+      for (int y = x + 1; y < 4; ++y)
+        if (a[x] == a[y]) f.error("dihedral with a repeated atom (" + std::to_string(a[x] + 1) + ")");
+    const long func = f.integer(4, "func");
+    if (dihedral_function_unsupported(func)) {
+      molecule.mark_unsupported(f.where(), "dihedral function type " + f[4] +
+                                               " is not supported (only 1, 9 proper, 2 harmonic improper, 3 "
+                                               "Ryckaert-Bellemans, 4 periodic improper, 5 Fourier)");
+      return;
+    }
+    const auto function = dihedral_function(func);
+    if (!function) f.error("dihedral function type " + f[4] + " does not exist (1, 2, 3, 4, 5, 8, 9, 10, 11)");
+    auto [params, perturbed] = dihedral_parameters(f, 5, *function);
+    std::vector<std::vector<double>> terms;
+    if (!params.empty()) {
+      terms.push_back(std::move(params));
+    } else {
+      const std::array<std::string, 4> names{bonded_name(molecule, a[0]), bonded_name(molecule, a[1]),
+                                             bonded_name(molecule, a[2]), bonded_name(molecule, a[3])};
+      for (const DihedralType* type : find_dihedraltypes(function->table, names)) {
+        terms.push_back(type->params);
+        perturbed = perturbed || type->perturbed;
+      }
+      if (terms.empty())
+        f.error("no parameters for this dihedral: no [ dihedraltypes ] entry of function " + f[4] +
+                " matches the bonded types " + names[0] + " " + names[1] + " " + names[2] + " " + names[3] +
+                " of atoms " + describe(molecule, a[0]) + ", " + describe(molecule, a[1]) + ", " +
+                describe(molecule, a[2]) + ", " + describe(molecule, a[3]) + " (X matches any type)");
+      // Several terms only from a block of function-9 types, and only for a proper dihedral.
+      if (function->table != 1) terms.resize(1);
+    }
+    if (perturbed)
+      molecule.mark_unsupported(f.where(), "free-energy perturbation (B-state parameters) is not supported");
+    constexpr double deg = std::numbers::pi / 180.0;
+    for (const auto& p : terms) {
+      switch (function->table) {
+        case 1:
+        case 4: {
+          const PeriodicDihedral d{a[0], a[1], a[2], a[3], p[0] * deg, p[1], static_cast<int>(p[2])};
+          (function->table == 1 ? molecule.proper_dihedrals : molecule.periodic_impropers).push_back(d);
+          break;
+        }
+        case 2: molecule.harmonic_impropers.push_back({a[0], a[1], a[2], a[3], p[0] * deg, p[1]}); break;
+        case 3: molecule.rb_dihedrals.push_back({a[0], a[1], a[2], a[3], {p[0], p[1], p[2], p[3], p[4], p[5]}}); break;
+        case 5: {
+          // grompp converts the Fourier coefficients to Ryckaert–Bellemans ones (convparm.cpp); the
+          // identity: ½ [F1 (1 + cos φ) + F2 (1 − cos 2φ) + F3 (1 + cos 3φ) + F4 (1 − cos 4φ)] in
+          // powers of cos ψ = −cos φ.
+          const double f1 = p[0], f2 = p[1], f3 = p[2], f4 = p[3];
+          molecule.rb_dihedrals.push_back({a[0], a[1], a[2], a[3],
+                                           {f2 + 0.5 * (f1 + f3), 0.5 * (3.0 * f3 - f1), 4.0 * f4 - f2, -2.0 * f3,
+                                            -4.0 * f4, 0.0}});
+          break;
+        }
+      }
+    }
+  }
+
+  // grompp's defaultInteractionsOfType: of the types matching the bonded type names (a name, or
+  // X for any), the first with the most non-X matches; and, after it, each next line (two entries
+  // on: they are kept forward and reversed) with the same atoms, for blocks of type-9 lines.
+  // Fourier types (table 5) match exactly, X matching nothing, as in grompp.
+  std::vector<const DihedralType*> find_dihedraltypes(int table, const std::array<std::string, 4>& names) const {
+    const auto it = dihedraltypes_.find(table);
+    if (it == dihedraltypes_.end()) return {};
+    const std::vector<DihedralType>& types = it->second;
+    const auto exact_matches = [&](const DihedralType& t) {
+      int exact = 0;
+      for (int x = 0; x < 4; ++x) {
+        if (t.atoms[x] == names[x] && t.atoms[x] != "X") ++exact;
+        else if (t.atoms[x] != "X" || table == 5) return -1;
+      }
+      return exact;
+    };
+    int best = -1, most = -1;
+    for (std::size_t k = 0; k < types.size() && most < 4; ++k) {
+      const int exact = exact_matches(types[k]);
+      if (exact > most) most = exact, best = static_cast<int>(k);
+    }
+    if (best < 0) return {};
+    std::vector<const DihedralType*> found{&types[best]};
+    for (std::size_t k = best + 2; k < types.size() && types[k].atoms == types[best].atoms; k += 2)
+      found.push_back(&types[k]);
+    return found;
+  }
+
+  static std::string describe(const MoleculeType& molecule, int atom) {
+    return std::to_string(atom + 1) + " (" + molecule.atoms[atom].name + ")";
+  }
+
+  // c6, c12 from V, W as the combination rule reads them (grompp's set_ljparams: with rules 2, 3
+  // a negative sigma means c6 = 0).
+  std::pair<double, double> lj_coefficients(double v, double w) const {
+    if (*comb_rule_ == 1) return {v, w};
+    const double sigma6 = std::pow(std::abs(v), 6);
+    return {v < 0 ? 0.0 : 4 * w * sigma6, 4 * w * sigma6 * sigma6};
+  }
+
+  // A 1–4 pair's LJ: its own parameters, else the [ pairtypes ] of its atom types, else (with
+  // gen-pairs) fudgeLJ times the pair's normal LJ, as grompp.
+  void pair(const Fields& f) {
+    f.require(3, "ai aj func [parameters]");
+    MoleculeType& molecule = molecules_.back();
+    const int i = f.atom(0, molecule), j = f.atom(1, molecule);
+    if (i == j) f.error("1-4 pair of an atom with itself");
+    const long func = f.integer(2, "func");
+    if (func == 2) {
+      molecule.mark_unsupported(f.where(), "1-4 pair function type 2 (pairs with their own charges) is not supported");
+      return;
+    }
+    if (func != 1) f.error("pair function type " + f[2] + " does not exist (1 or 2)");
+    auto params = inline_parameters(f, 3, 2, "V W", molecule);
+    std::pair<double, double> c6_c12;
+    if (params) {
+      c6_c12 = lj_coefficients((*params)[0], (*params)[1]);
+    } else {
+      const AtomType &ta = atomtypes_[molecule.atoms[i].type], &tb = atomtypes_[molecule.atoms[j].type];
+      if (const auto it = pairtypes_.find(ordered(ta.name, tb.name)); it != pairtypes_.end()) {
+        c6_c12 = lj_coefficients(it->second.first.first, it->second.first.second);
+      } else if (gen_pairs_) {
+        const auto [c6, c12] = lennard_jones(ta, tb);
+        c6_c12 = {fudge_lj_ * c6, fudge_lj_ * c12};
+      } else {
+        f.error("no parameters for this 1-4 pair: no [ pairtypes ] entry " + ta.name + " " + tb.name +
+                " 1, and [ defaults ] (at " + defaults_where_.str() + ") has gen-pairs no");
+      }
+    }
+    molecule.pairs14.push_back(
+        {i, j, c6_c12.first, c6_c12.second, fudge_qq_ * molecule.atoms[i].charge * molecule.atoms[j].charge});
   }
 
   void constraint(const Fields& f) {
@@ -693,9 +981,7 @@ class TopologyParser {
       if (a.v < 0 || b.v < 0) v = -v;
       w = std::sqrt(a.w * b.w);
     }
-    if (*comb_rule_ == 1) return {v, w};
-    const double sigma6 = std::pow(std::abs(v), 6);
-    return {v < 0 ? 0.0 : 4 * w * sigma6, 4 * w * sigma6 * sigma6};
+    return lj_coefficients(v, w);
   }
 
   // GROMACS renumbers the residues of single-residue molecules (water, ions) consecutively after
@@ -705,6 +991,17 @@ class TopologyParser {
     for (std::size_t a = 0; a < m.atoms.size(); ++a)
       if (a == 0 || m.atoms[a].residue_number != m.atoms[a - 1].residue_number) ++count;
     return count;
+  }
+
+  template <class Dihedral>
+  static void append_shifted(const std::vector<Dihedral>& from, int offset, std::vector<Dihedral>& to) {
+    for (Dihedral d : from) {
+      d.i += offset;
+      d.j += offset;
+      d.k += offset;
+      d.l += offset;
+      to.push_back(d);
+    }
   }
 
   System build() const {
@@ -760,11 +1057,21 @@ class TopologyParser {
           a.k += offset;
           system.angles.push_back(a);
         }
+        append_shifted(m.proper_dihedrals, offset, system.proper_dihedrals);
+        append_shifted(m.periodic_impropers, offset, system.periodic_impropers);
+        append_shifted(m.rb_dihedrals, offset, system.rb_dihedrals);
+        append_shifted(m.harmonic_impropers, offset, system.harmonic_impropers);
+        for (Pair14 p : m.pairs14) {
+          p.i += offset;
+          p.j += offset;
+          system.pairs14.push_back(p);
+        }
         for (Constraint c : m.constraints) {
           c.i += offset;
           c.j += offset;
           system.constraints.push_back(c);
         }
+        system.bonds_constrained += m.bonds_constrained;
         offset += static_cast<int>(m.atoms.size());
       }
     }
@@ -785,8 +1092,14 @@ class TopologyParser {
   std::string section_name_;
   std::optional<SectionInfo> section_;
 
+  BondConstraints bond_constraints_;
   std::optional<int> comb_rule_;
   Where defaults_where_;
+  bool gen_pairs_ = false;
+  double fudge_lj_ = 1, fudge_qq_ = 1;
+  std::set<std::string> bonded_names_;
+  std::map<std::pair<std::string, std::string>, std::pair<std::pair<double, double>, Where>> pairtypes_;
+  std::map<int, std::vector<DihedralType>> dihedraltypes_;  // by DihedralFunction::table
   std::vector<AtomType> atomtypes_;
   std::unordered_map<std::string, int> atomtype_index_;
   std::map<std::pair<std::string, std::string>, std::pair<std::pair<double, double>, Where>> nonbond_params_;
@@ -817,6 +1130,12 @@ std::vector<fs::path> gromacs_library_dirs() {
   return dirs;
 }
 
-System read_topology(const fs::path& top) { return TopologyParser(top).parse(); }
+bool hydrogen_like(const std::string& atom_name) {
+  return !atom_name.empty() && std::toupper(static_cast<unsigned char>(atom_name[0])) == 'H';
+}
+
+System read_topology(const fs::path& top, BondConstraints bond_constraints) {
+  return TopologyParser(top, bond_constraints).parse();
+}
 
 }  // namespace vimd

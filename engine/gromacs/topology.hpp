@@ -2,15 +2,23 @@
 // GROMACS .top reader with GROMACS's preprocessor (#include, #define, #undef, #ifdef, #ifndef,
 // #else, #endif, ';' comments, '\' continuation). Produces the System of all molecules listed in
 // [ molecules ]; the box stays zero (it comes from the structure file). Anything in a used molecule
-// that vimd cannot compute (pairs, dihedrals, virtual sites, …) is an InputError at its file:line.
+// that vimd cannot compute (virtual sites, CMAP, restraints, …) is an InputError at its file:line.
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "engine/system.hpp"
 
 namespace vimd {
 
-System read_topology(const std::filesystem::path& top);
+// GROMACS's mdp option constraints: which bonds become rigid constraints at their length b0
+// (h_bonds: those with a hydrogen, an atom whose name starts with H, grompp's rule).
+enum class BondConstraints { none, h_bonds, all_bonds };
+
+// grompp's rule for a hydrogen (topshake.cpp): the atom's name starts with H or h.
+bool hydrogen_like(const std::string& atom_name);
+
+System read_topology(const std::filesystem::path& top, BondConstraints bond_constraints = BondConstraints::none);
 
 // Directories searched for an #include after the including file's own directory: the
 // colon-separated $GMXLIB when set, else GROMACS's data directory /usr/share/gromacs/top.

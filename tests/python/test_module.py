@@ -79,6 +79,36 @@ def test_energy_equals_cli_json_bit_for_bit(config):
         assert got[key] == expected[key], key  # exact: the same code on the same doubles
 
 
+def test_molecule_terms_and_bond_constraints(tmp_path):
+    """Dihedrals, impropers and 1-4 pairs reach Python as the command line has them, and
+    constraints = "h-bonds" is a setting like any other."""
+    src = ROOT / "validation" / "molecules" / "torsions"
+    config = tmp_path / "run.toml"
+    config.write_text(f'[system]\nstructure = "{src / "conf.gro"}"\ntopology = "{src / "topol.top"}"\n'
+                      '[integrator]\ntemperature = 300.0\n')
+    rc, out, err = cli("energy", config, "--json")
+    assert rc == 0, err
+    expected = json.loads(out)
+    got = vimd.Simulation(config).energy()
+    assert list(got) == ["lj", "coulomb", "bonds", "angles", "dihedrals", "impropers", "lj14", "coulomb14",
+                         "potential"]
+    for key in expected:
+        assert got[key] == expected[key], key
+    for key in ("dihedrals", "impropers", "lj14", "coulomb14"):
+        assert got[key] != 0, key
+    rc, out, err = cli("check", config)
+    assert "0 of them bonds made rigid" in out
+    rigid_config = tmp_path / "rigid.toml"
+    rigid_config.write_text(config.read_text().replace("[integrator]", 'constraints = "h-bonds"\n[integrator]'))
+    rc, out, err = cli("check", rigid_config)
+    assert rc == 0, err
+    assert '6 of them bonds made rigid (constraints = "h-bonds")' in out
+    rigid = vimd.Simulation(config, constraints="h-bonds")  # the three C-H bonds of each molecule
+    assert rigid.energy()["bonds"] != got["bonds"]
+    with pytest.raises(vimd.InputError, match='did you mean "h-bonds"'):
+        vimd.Simulation(config, constraints="hbonds")
+
+
 @pytest.mark.parametrize("integrator", [
     dict(type="rattle"),
     dict(type="shake"),
