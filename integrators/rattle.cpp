@@ -14,7 +14,9 @@ Rattle::Rattle(const IntegratorConfig& config)
       tolerance_(config.constraint_tolerance),
       max_iterations_(config.max_iterations) {
   check_step_config(config);
-  for (double gamma : resolve_composition(config).weights) sub_steps_.push_back(gamma * dt_);
+  const Composition composition = resolve_composition(config);
+  name_ = composition.name == "none" ? "rattle" : "rattle (composition " + composition.name + ")";
+  for (double gamma : composition.weights) sub_steps_.push_back(gamma * dt_);
 }
 
 void Rattle::init(Problem& problem, State& state) {

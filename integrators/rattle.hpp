@@ -18,7 +18,8 @@ namespace vimd {
 class Rattle : public ThermostattedIntegrator {
  public:
   explicit Rattle(const IntegratorConfig& config);
-  std::string name() const override { return "rattle"; }
+  // "rattle", or with a composition "rattle (composition yoshida4)"
+  std::string name() const override { return name_; }
   void init(Problem& problem, State& state) override;
   // iterations: constraint (Newton) iterations of the position stages, summed over the sub-steps;
   // residual: the largest final maximum relative bond-length deviation of a sub-step.
@@ -29,6 +30,7 @@ class Rattle : public ThermostattedIntegrator {
   // One RATTLE step of length h (negative in some compositions); energies as Problem::energies_due.
   void sub_step(Problem& problem, State& state, double h, bool energies, StepReport& report);
 
+  std::string name_;
   double dt_, tolerance_;
   int max_iterations_;
   std::vector<double> sub_steps_;  // h_k = γ_k dt; {dt} without a composition
