@@ -371,6 +371,27 @@ class ConfigReader {
               "[integrator.tableau] is given, so method must be \"user\" (it is \"" + in.method + "\")");
     else if (in.method == "user")
       fail(*method, "method = \"user\" needs an [integrator.tableau] table with a, b and order");
+    if (const toml::node* composition = node("integrator", "composition")) {
+      if (in.type == "shake")
+        require(in.composition == "none", *composition,
+                "composition is for type = \"rattle\": SHAKE's leap-frog state holds half-step velocities, which "
+                "sub-steps of other lengths cannot share; type = \"rattle\" takes the same positions with on-step "
+                "velocities");
+      require(in.composition == "none" || in.type == "rattle", *composition,
+              "composition is for type = \"rattle\" (type is \"" + in.type + "\")");
+    }
+    for (const char* user_key : {"composition_weights", "composition_order"})
+      if (const toml::node* given = node("integrator", user_key))
+        require(in.composition == "user", *given,
+                std::string(user_key) + " is given, so composition must be \"user\" (it is \"" + in.composition +
+                    "\")");
+    if (in.composition == "user") {
+      const toml::node& composition = *node("integrator", "composition");
+      require(node("integrator", "composition_weights") != nullptr, composition,
+              "composition = \"user\" needs composition_weights = [...] (the sub-steps as fractions of dt)");
+      require(node("integrator", "composition_order") != nullptr, composition,
+              "composition = \"user\" needs composition_order (the order the weights claim, checked)");
+    }
     if (ff.precision == "mixed" && (in.type == "vi" || in.type == "rk"))
       fail(*node("forcefield", "precision"),
            "precision = \"mixed\" is for verlet, shake, rattle and minimize: type = \"" + in.type +

@@ -50,6 +50,11 @@ struct IntegratorConfig {
   std::string thermostat = "none";      // "none" | "v-rescale"
   double tau_t = 0.1;                   // ps, the thermostat's time constant
 
+  // RATTLE as a symmetric composition of its own steps (integrators/composition.hpp).
+  std::string composition = "none";          // "none" | a built-in composition | "user"
+  std::vector<double> composition_weights;   // composition = "user": the sub-steps γ_k (times dt)
+  int composition_order = 0;                 // composition = "user": the order the weights claim
+
   // Energy minimisation (type = "minimize").
   double emtol = 10.0;   // kJ/mol/nm: stop when the largest constrained force is below this
   double emstep = 0.01;  // nm: the first step's largest displacement

@@ -269,6 +269,43 @@ std::vector<ConfigKey> make_keys() {
   k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::tau_t>(
       "integrator", "tau_t", "number, ps", kMustMatch, "the thermostat's time constant",
       [](double v) { return v >= 0; }, "tau_t must not be negative (ps)"));
+  k.push_back(choice_key<&RunConfig::integrator, &IntegratorConfig::composition>(
+      "integrator", "composition", {"none", "yoshida4", "suzuki4", "kahan-li6", "kahan-li8", "user"}, kMustMatch,
+      "rattle: each step a symmetric composition of RATTLE sub-steps, orders 4, 4, 6, 8 in 3, 5, 9, 17 sub-steps "
+      "(one force evaluation each), or user (composition_weights, composition_order)"));
+  k.push_back({"integrator",
+               "composition_weights",
+               "array of numbers",
+               {},
+               kMustMatch,
+               "composition = \"user\": the sub-steps as fractions of dt, symmetric, summing to 1",
+               [](const KeyInput& in, RunConfig& c) {
+                 c.integrator.composition_weights = in.numbers();
+                 in.require(!c.integrator.composition_weights.empty(), "composition_weights must not be empty");
+               },
+               [](const RunConfig& c) {
+                 if (c.integrator.composition_weights.empty()) return std::string("(none)");
+                 std::string text;
+                 for (double w : c.integrator.composition_weights) text += (text.empty() ? "[" : ", ") + exact_text(w);
+                 return text + "]";
+               }});
+  k.push_back({"integrator",
+               "composition_order",
+               "integer, 2-10",
+               {},
+               kMustMatch,
+               "composition = \"user\": the order composition_weights claim, checked against the order conditions",
+               [](const KeyInput& in, RunConfig& c) {
+                 const long order = in.integer();
+                 in.require(order >= 2 && order <= 10 && order % 2 == 0,
+                            "composition_order must be 2, 4, 6, 8 or 10 (a symmetric composition has even order), "
+                            "got " + std::to_string(order));
+                 c.integrator.composition_order = static_cast<int>(order);
+               },
+               [](const RunConfig& c) {
+                 return c.integrator.composition_order ? integer_text(c.integrator.composition_order)
+                                                       : std::string("(none)");
+               }});
   k.push_back(number_key<&RunConfig::integrator, &IntegratorConfig::emtol>(
       "integrator", "emtol", "number, kJ/mol/nm", kMustMatch,
       "minimize: stop when the largest constrained force is below this", [](double v) { return v > 0; },

@@ -13,7 +13,7 @@ namespace vimd::testing {
 // Fourth-order central differences: truncation O(h⁴), so 1e-6 relative is a real check.
 constexpr double kStep = 1e-5;
 
-inline Coords finite_difference_forces(ForceTerm& term, const Coords& q) {
+inline Coords finite_difference_forces(ForceTerm& term, const Coords& q, double step = kStep) {
   Coords f(3, q.cols());
   for (int i = 0; i < q.cols(); ++i)
     for (int k = 0; k < 3; ++k) {
@@ -22,15 +22,16 @@ inline Coords finite_difference_forces(ForceTerm& term, const Coords& q) {
         p(k, i) += h;
         return evaluate(term, p).energy;
       };
-      f(k, i) = -(-energy(2 * kStep) + 8 * energy(kStep) - 8 * energy(-kStep) + energy(-2 * kStep)) / (12 * kStep);
+      f(k, i) = -(-energy(2 * step) + 8 * energy(step) - 8 * energy(-step) + energy(-2 * step)) / (12 * step);
     }
   return f;
 }
 
 // ∇²V u = −d/dε F(q + ε u).
-inline Coords finite_difference_hessian_vector(ForceTerm& term, const Coords& q, const Coords& u) {
+inline Coords finite_difference_hessian_vector(ForceTerm& term, const Coords& q, const Coords& u,
+                                              double step = kStep) {
   auto force = [&](double h) { return evaluate(term, q + h * u).f; };
-  return -(-force(2 * kStep) + 8 * force(kStep) - 8 * force(-kStep) + force(-2 * kStep)) / (12 * kStep);
+  return -(-force(2 * step) + 8 * force(step) - 8 * force(-step) + force(-2 * step)) / (12 * step);
 }
 
 inline Coords random_direction(int n, std::uint64_t seed) {
@@ -42,15 +43,17 @@ inline Coords random_direction(int n, std::uint64_t seed) {
   return u;
 }
 
-inline void expect_derivatives_match(ForceTerm& term, const Coords& q, const std::string& what) {
+// `step`: the differences' step (nm), small against the scale on which the term changes.
+inline void expect_derivatives_match(ForceTerm& term, const Coords& q, const std::string& what,
+                                     double step = kStep) {
   const auto at_q = evaluate(term, q);
   ASSERT_GT(at_q.f.norm(), 0.0) << what << ": forces vanish, the check would be empty";
-  const Coords fd = finite_difference_forces(term, q);
+  const Coords fd = finite_difference_forces(term, q, step);
   EXPECT_LT(relative_difference(at_q.f, fd), 1e-6) << what << ": forces vs finite differences";
   const Coords u = random_direction(static_cast<int>(q.cols()), 7);
   const Coords hu = hessian_vector(term, q, u);
   ASSERT_GT(hu.norm(), 0.0) << what;
-  EXPECT_LT(relative_difference(hu, finite_difference_hessian_vector(term, q, u)), 1e-6)
+  EXPECT_LT(relative_difference(hu, finite_difference_hessian_vector(term, q, u, step)), 1e-6)
       << what << ": Hessian-vector product vs finite differences";
 }
 

@@ -47,6 +47,12 @@ struct Engine {
       input.config.integrator.thermostat = "v-rescale";
       input.config.integrator.temperature = 300.0;
     }
+    if (type == "rattle_yoshida4_vrescale") {  // composed steps, with the thermostat once per step
+      input.config.integrator.type = "rattle";
+      input.config.integrator.composition = "yoshida4";
+      input.config.integrator.thermostat = "v-rescale";
+      input.config.integrator.temperature = 300.0;
+    }
     field = make_force_field(input.system, input.config.forcefield);
     constraints = Constraints(input.system.constraints, input.system.n_atoms(), input.system.box);
     inverse_mass = input.system.mass.cwiseInverse();
@@ -154,7 +160,9 @@ TEST_P(StopAndContinue, IsBitIdenticalToTheUninterruptedRun) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Integrators, StopAndContinue,
-                         ::testing::Combine(::testing::Values("rattle", "shake", "vi", "rattle_vrescale", "minimize"), ::testing::Values(1, 2)),
+                         ::testing::Combine(::testing::Values("rattle", "shake", "vi", "rattle_vrescale",
+                                                              "rattle_yoshida4_vrescale", "minimize"),
+                                            ::testing::Values(1, 2)),
                          [](const auto& info) {
                            return std::get<0>(info.param) + "_" + std::to_string(std::get<1>(info.param)) + "threads";
                          });

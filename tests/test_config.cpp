@@ -133,6 +133,11 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"coulomb_switch_missing.toml", "needs coulomb_switch"},
       {"coulomb_modifier_without_coulomb.toml", "needs coulomb = \"reaction-field\", \"cutoff\" or \"pme\""},
       {"bad_coulomb_modifier.toml", "(choices: none, potential-shift, potential-switch)"},
+      {"composition_with_shake.toml", "SHAKE's leap-frog state holds half-step velocities"},
+      {"composition_with_vi.toml", "composition is for type = \"rattle\" (type is \"vi\")"},
+      {"composition_weights_without_user.toml", "composition_weights is given, so composition must be \"user\""},
+      {"user_composition_without_order.toml", "composition = \"user\" needs composition_order"},
+      {"odd_composition_order.toml", "composition_order must be 2, 4, 6, 8 or 10"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);
@@ -232,6 +237,9 @@ TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
       {"max_iterations", 40L},
       {"acceleration", std::string("none")},
       {"solver_precision", std::string("mixed")},
+      {"composition", std::string("yoshida4")},
+      {"composition_weights", std::vector<double>{0.5, 0.5}},
+      {"composition_order", 4L},
       {"tableau", TableauConfig{{{0.0, 0.0}, {1.0, 0.0}}, {0.5, 0.5}, {0.0, 1.0}, 2, 0}},
       {"dir", std::string("results/run2")},
       {"trajectory_every", 10L},

@@ -10,7 +10,8 @@ from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
 from . import plan  # noqa: E402
 
-STYLES = {v.key: v for v in plan.order_variants(list(plan.TABLEAU_ORDERS)) + plan.SCAN_VARIANTS + plan.GMX_VARIANTS
+STYLES = {v.key: v for v in plan.order_variants(list(plan.TABLEAU_ORDERS), list(plan.COMPOSITION_ORDERS))
+          + plan.SCAN_VARIANTS + plan.GMX_VARIANTS
           + [plan.SWITCHED_RATTLE]}
 DPI = 110
 

@@ -138,8 +138,19 @@ def smooth_series(smoothness, methods, biases, dts):
     return tuple(out)
 
 
-def order_variants(tableaus):
-    return [RATTLE, SHAKE] + [vi(m, b) for m in tableaus for b in BIASES] + [rk(m) for m in tableaus]
+# RATTLE's symmetric compositions (integrators/composition.cpp) with their orders.
+COMPOSITION_ORDERS = {"yoshida4": 4, "suzuki4": 4, "kahan-li6": 6, "kahan-li8": 8}
+COMPOSITION_COLORS = {"yoshida4": "#7f7f7f", "suzuki4": "#bcbd22", "kahan-li6": "#17becf", "kahan-li8": "#ff7f0e"}
+
+
+def composed_rattle(composition):
+    return Variant(f"rattle-{composition}", f"rattle {composition}", {"type": "rattle", "composition": composition},
+                   COMPOSITION_ORDERS[composition], COMPOSITION_COLORS[composition], "-.", "s")
+
+
+def order_variants(tableaus, compositions=()):
+    return ([RATTLE, SHAKE] + [composed_rattle(c) for c in compositions] + [vi(m, b) for m in tableaus for b in BIASES]
+            + [rk(m) for m in tableaus])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -169,6 +180,9 @@ class Plan:
     order_system: str
     order_tableaus: tuple
     order_dts: tuple
+    # RATTLE's compositions, each at its own steps (ps; each dividing order_ps): their errors fall
+    # so fast that the tableaus' steps would leave the high orders at the round-off floor
+    order_compositions: dict
     order_ps: float
     order_reference_dt: float
     order_tolerance: float       # solver and constraint tolerance of the order study
@@ -208,6 +222,10 @@ FULL = Plan(
     order_system="cluster8",
     order_tableaus=tuple(TABLEAU_ORDERS),
     order_dts=tuple(x * FS for x in (0.25, 0.5, 1, 2, 4)),
+    order_compositions={"yoshida4": tuple(x * FS for x in (0.25, 0.5, 1, 2)),
+                        "suzuki4": tuple(x * FS for x in (0.5, 1, 2, 4)),
+                        "kahan-li6": tuple(x * FS for x in (1, 2, 2.5, 4)),
+                        "kahan-li8": tuple(x * FS for x in (2, 2.5, 3.125, 4, 5))},
     order_ps=0.2,
     order_reference_dt=0.05 * FS,
     order_tolerance=1e-12,
@@ -260,6 +278,7 @@ QUICK = Plan(
     order_system="cluster8",
     order_tableaus=("heun2", "rk4", "rk6"),
     order_dts=tuple(x * FS for x in (0.5, 1, 2)),
+    order_compositions={"yoshida4": tuple(x * FS for x in (0.5, 1, 2))},
     order_ps=0.05,
     order_reference_dt=0.1 * FS,
     order_tolerance=1e-12,

@@ -119,13 +119,15 @@ def order(runner, plan, report_dir, log):
                               stability_fraction=plan.stability_fraction)
 
     # vimd's methods, then GROMACS's two integrators with SETTLE as a cross-check of RATTLE and SHAKE
-    methods = [(v, v.order, lambda dt, v=v: run(v, dt, "order-cluster8")) for v in order_variants(plan.order_tableaus)]
-    methods += [(gv, 2, lambda dt, gv=gv: gromacs_run(gv, dt, "order-cluster8")) for gv in GMX_VARIANTS]
+    variants = order_variants(plan.order_tableaus, tuple(plan.order_compositions))
+    methods = [(v, v.order, lambda dt, v=v: run(v, dt, "order-cluster8"),
+                plan.order_compositions.get(v.integrator.get("composition"), plan.order_dts)) for v in variants]
+    methods += [(gv, 2, lambda dt, gv=gv: gromacs_run(gv, dt, "order-cluster8"), plan.order_dts) for gv in GMX_VARIANTS]
     rows = []
-    for variant, nominal, run_at in methods:
+    for variant, nominal, run_at, dts in methods:
         log(f"[order] {variant.label}")
         runs, errors = [], []
-        for dt in plan.order_dts:
+        for dt in dts:
             r = run_at(dt)
             runs.append(r)
             if reference is not None and "stats" in r:
