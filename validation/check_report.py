@@ -15,7 +15,8 @@ v(-dt/2) is first order), of RATTLE's compositions within nominal ± 0.3 (their 
 above the round-off floor), of the other methods within [nominal - 1, nominal + 1.5]; in section 6
 (smooth interactions) RATTLE's slope of RMS fluctuation vs dt 1.5-2.6 at every smoothness, the
 others' in [0.5, nominal + 1.5] (the smoothness may cap them), every RATTLE/vi time ratio positive,
-a crossover statement, and the switched run's RDF peak, RDF difference to GROMACS (< 0.5) and D.
+a crossover statement, and the switched run's RDF peak, RDF difference to GROMACS (< 0.5) and D;
+in section 7 (PME water) the same slope ranges and a crossover statement.
 Exit status 1 with the list of failures otherwise.
 """
 import argparse
@@ -212,7 +213,7 @@ def check_report(report_dir):
     c.check(rows, "no smooth-interactions crossover table")
     for row in rows:
         c.check(row[2] == "n/a" or (magnitude(row[2]) or 0) > 0, f"RATTLE / vi time ratio of {row[1]}: '{row[2]}'")
-    smooth_text = text.split("## 6. Smooth interactions")[-1].split("## Closing note")[0]
+    smooth_text = text.split("## 6. Smooth interactions")[-1].split("## 7. PME water")[0]
     c.check("**Crossover:**" in smooth_text, "section 6 states no crossover")
     header, rows = column("RMS RDF difference to GROMACS")
     c.check(rows, "no price-of-smoothness table")
@@ -224,6 +225,18 @@ def check_report(report_dir):
             c.in_range(number(cell), 0, 0.5, f"RMS RDF difference of {row[0]} to GROMACS")
         c.in_range(number(row[header.index("D ± error (cm²/s)")].split("±")[0]), 1e-6, 3e-4,
                    f"diffusion coefficient of {row[0]} (price of smoothness)")
+
+    # Section 7: the same comparison on PME water.
+    pme_text = text.split("## 7. PME water")[-1].split("## Closing note")[0]
+    c.check("**Crossover:**" in pme_text, "section 7 states no crossover")
+    slopes = [row for _, h, rows in parse_tables(pme_text) if "slope of RMS vs dt" in h for row in rows]
+    c.check(slopes, "no PME-water slope table")
+    for row in slopes:
+        slope, nominal = number(row[3]), int(row[2])
+        if row[1] == "rattle":
+            c.in_range(slope, 1.5, 2.6, f"slope of RMS fluctuation vs dt of rattle at {row[0]} (PME)")
+        elif slope is not None:
+            c.in_range(slope, 0.5, nominal + 1.5, f"slope of RMS fluctuation vs dt of {row[1]} at {row[0]} (PME)")
     return c
 
 

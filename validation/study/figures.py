@@ -148,7 +148,8 @@ def _finish_smooth_panel(ax, smoothness, xlabel, step_ticks=None):
         _step_ticks(ax, step_ticks)
     ax.set_xlabel(xlabel)
     ax.set_ylabel("RMS energy fluctuation (kJ/mol)")
-    ax.set_title(f"switch smoothness C{smoothness}")
+    # section 6's levels are smoothness numbers; section 7's are named ("p8 C4": B-spline order, smoothness)
+    ax.set_title(f"switch smoothness C{smoothness}" if isinstance(smoothness, int) else smoothness)
     ax.grid(True, which="both", alpha=0.3)
     _legend(ax, fontsize=7)
 

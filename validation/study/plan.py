@@ -63,6 +63,19 @@ def switched(system, smoothness):
     return dataclasses.replace(system, forcefield=ff, note=note)
 
 
+def pme_water(system, cutoff, switch, skin, pme_order, smoothness):
+    """A water system of the study with particle-mesh Ewald (ewald_rtol 1e-5, fourier_spacing 0.12 nm,
+    GROMACS's defaults) at `pme_order`, its real space and LJ potential-switched from `switch` to the
+    cut-off, both C^smoothness; beta then follows from erfc(beta switch) = ewald_rtol (docs/pme.md)."""
+    ff = dict(cutoff=cutoff, vdw_modifier="potential-switch", vdw_switch=switch, coulomb="pme",
+              coulomb_modifier="potential-switch", coulomb_switch=switch, switch_smoothness=smoothness,
+              ewald_rtol=1e-5, pme_order=pme_order, fourier_spacing=0.12, neighbor_skin=skin)
+    note = (f"PME (ewald_rtol 1e-5 at {switch:g} nm, fourier_spacing 0.12 nm, pme_order {pme_order}: mesh energy "
+            f"C{pme_order - 2}), its real space and LJ potential-switched {switch:g}-{cutoff:g} nm, "
+            f"C{smoothness} at both ends, neighbour skin {skin:g} nm")
+    return dataclasses.replace(system, forcefield=ff, note=note)
+
+
 SYSTEMS = {
     "water900": water("water900", 0.1),
     # cut-off + skin must stay below half of the 1.864 nm box (inputs/README.md)
@@ -126,6 +139,25 @@ class SmoothSeries:
     smoothness: int
     variant: Variant
     dts: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class PmeSeries:
+    """One integrator of the PME-water section at one B-spline order and switch smoothness."""
+    pme_order: int
+    smoothness: int
+    variant: Variant
+    dts: tuple
+
+    @property
+    def level(self):
+        return f"p{self.pme_order} C{self.smoothness}"
+
+
+def pme_series(pme_order, smoothness, methods, dts):
+    """RATTLE at dts["rattle"] and vi [0,1] with each method at dts[method] (fs)."""
+    return tuple(PmeSeries(pme_order, smoothness, v, tuple(x * FS for x in dts[key]))
+                 for key, v in [("rattle", RATTLE)] + [(m, vi(m, "b01")) for m in methods])
 
 
 def smooth_series(smoothness, methods, biases, dts):
@@ -204,6 +236,14 @@ class Plan:
     smooth_floor: float          # kJ/mol: RMS fluctuation of round-off and solve; slopes fit points 10x above
     smooth_threads: int          # OpenMP threads per run of section 6 (the crossover is stated at 2)
     price_smoothness: int        # the switched run set against GROMACS's unswitched long run
+    # Section 7: PME water, the smooth-interactions comparison with PME's real space switched
+    pme_system: str
+    pme_cutoff: float            # nm
+    pme_switch: float            # nm: where LJ and PME's real space start to be switched off
+    pme_skin: float              # nm
+    pme_series: tuple            # PmeSeries: (pme_order, smoothness, integrator, time steps)
+    pme_ps: float
+    pme_energy_interval_ps: float
     stability_fraction: float = 0.01   # max |E(t) - E(0)| allowed, as a fraction of <E_kin>
 
 
@@ -265,6 +305,19 @@ FULL = Plan(
     smooth_floor=1e-9,
     smooth_threads=2,
     price_smoothness=4,
+    # Section 7 runs the smooth-interactions comparison on PME water: the mesh's order caps the
+    # smoothness (its energy is C^(p-2)), so order 4 with rk4, 8 with rk4-rk8, 12 at C6 with rk6-rk8.
+    pme_system="water900",
+    pme_cutoff=1.0,
+    pme_switch=0.8,
+    pme_skin=0.1,
+    pme_series=(pme_series(4, 4, ("rk4",), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4)})
+                + pme_series(8, 4, ("rk4", "rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4),
+                                                            "rk6": (2, 3, 4), "rk8": (2, 3, 4)})
+                + pme_series(12, 6, ("rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk6": (2, 3, 4),
+                                                      "rk8": (2, 3, 4)})),
+    pme_ps=1.0,
+    pme_energy_interval_ps=0.012,
 )
 
 QUICK = Plan(
@@ -300,6 +353,13 @@ QUICK = Plan(
     smooth_floor=1e-9,
     smooth_threads=2,
     price_smoothness=4,
+    pme_system="water216",
+    pme_cutoff=0.9,   # water216's box allows at most 0.932 nm with the skin
+    pme_switch=0.7,
+    pme_skin=0.03,
+    pme_series=pme_series(8, 4, ("rk4",), {"rattle": (0.5, 2), "rk4": (2, 4)}),
+    pme_ps=0.048,
+    pme_energy_interval_ps=0.004,
 )
 
 

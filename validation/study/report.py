@@ -342,9 +342,14 @@ def best_equivalent(runs, basis=None):
     return max(ranked, key=lambda r: r["rattle_equivalent"]["ratio"]) if ranked else None
 
 
+def level_name(k):
+    """A level of section 6 (its smoothness k) or 7 (its name, "p8 C4") as the tables show it."""
+    return f"C{k}" if isinstance(k, int) else k
+
+
 def _ratio_text(k, label, run):
     e = run["rattle_equivalent"]
-    return (f"**{num(e['ratio'], 3)}x** — {label} at C{k}, dt = {fs(run['dt'])} fs, reaches an RMS fluctuation of "
+    return (f"**{num(e['ratio'], 3)}x** — {label} at {level_name(k)}, dt = {fs(run['dt'])} fs, reaches an RMS fluctuation of "
             f"{num(run['stats']['rms_fluctuation'], 3)} kJ/mol in {num(run['cost']['wall_per_ps'], 3)} s per ps; "
             f"RATTLE needs {num(e['wall_per_ps'], 3)} s per ps for it ({_equivalent_text(e)})")
 
@@ -359,16 +364,16 @@ def smooth_crossover_rows(sm):
             sentence, threshold, how = crossover_sentence(label, c, "wall time per ps")
             best = best_equivalent(runs)
             if best is None:
-                rows.append([f"C{k}", label, "n/a", "-", "-", "-", "-", "-", sentence,
+                rows.append([level_name(k), label, "n/a", "-", "-", "-", "-", "-", sentence,
                              code(runs[0].get("command"))])
                 continue
             e = best["rattle_equivalent"]
-            rows.append([f"C{k}", label, f"**{num(e['ratio'], 3)}**", fs(best["dt"]),
+            rows.append([level_name(k), label, f"**{num(e['ratio'], 3)}**", fs(best["dt"]),
                          num(best["stats"]["rms_fluctuation"], 3), num(best["cost"]["wall_per_ps"], 3),
                          num(e["wall_per_ps"], 3), _equivalent_text(e),
                          (f"{num(threshold, 3)} kJ/mol ({how}). " if threshold is not None else "") + sentence,
                          code(best["command"])])
-            summary.append({"k": k, "label": label, "best": best,
+            summary.append({"k": k, "smoothness": level["smoothness"], "label": label, "best": best,
                             "best_interpolated": best_equivalent(runs, "interpolated"),
                             "threshold": threshold, "how": how})
     return rows, summary
@@ -378,11 +383,11 @@ def smooth_headline(sm, summary):
     """The crossover statement of section 6, from the data: at smoothness >= 4 (else at any), the best
     ratio, the best with RATTLE's cost interpolated between its runs, and the loosest accuracy from
     which a variational integrator is cheaper than RATTLE."""
-    smooth_enough = [t for t in summary if t["k"] >= 4] or summary
+    smooth_enough = [t for t in summary if t["smoothness"] >= 4] or summary
     if not smooth_enough:
         return ("No variational integrator run could be compared with RATTLE (the reason per integrator is in the "
                 "table), so no crossover can be stated.")
-    where = " at smoothness >= 4" if smooth_enough[0]["k"] >= 4 else ""
+    where = " at smoothness >= 4" if smooth_enough[0]["smoothness"] >= 4 else ""
     ratio = lambda run: run["rattle_equivalent"]["ratio"]
     t = max(smooth_enough, key=lambda t: ratio(t["best"]))
     text = [f"Best wall-time ratio RATTLE / vi{where}: {_ratio_text(t['k'], t['label'], t['best'])}."]
@@ -398,7 +403,7 @@ def smooth_headline(sm, summary):
     if cheaper:
         t = max(cheaper, key=lambda t: t["threshold"])
         text.append(f"Crossover accuracy: below an RMS fluctuation of **{num(t['threshold'], 3)} kJ/mol** a "
-                    f"variational integrator is cheaper in wall time than RATTLE ({t['label']} at C{t['k']}; "
+                    f"variational integrator is cheaper in wall time than RATTLE ({t['label']} at {level_name(t['k'])}; "
                     f"{t['how']}).")
     else:
         text.append("No variational integrator is cheaper than RATTLE at any accuracy compared here.")
@@ -415,28 +420,51 @@ def smooth_slopes(sm):
             rms = {r["dt"]: r["stats"]["rms_fluctuation"] for r in runs if "stats" in r and r["status"] == "ok"}
             stable = [r["dt"] for r in runs if r["status"] == "ok"]
             slope = num(fit["slope"], 3) if fit["slope"] is not None else "n/a (fewer than two points above the floor)"
-            rows.append([f"C{k}", label, fit["order"], slope, ", ".join(fs(d) for d in fit["fit_dts"]) or "-",
+            rows.append([level_name(k), label, fit["order"], slope, ", ".join(fs(d) for d in fit["fit_dts"]) or "-",
                          ", ".join(f"{x:.2f}" for x in fit["local_slopes"]) or "-",
                          fs(max(stable)) if stable else "none"] + [num(rms.get(d), 3) if d in rms else "-" for d in dts])
             if fit["slope"] is not None:
-                stated.append(f"{label} {num(fit['slope'], 3)} (C{k})")
+                stated.append(f"{label} {num(fit['slope'], 3)} ({level_name(k)})")
     return rows, dts, stated
 
 
 def smooth_section(sm):
     ff = next(iter(sm["levels"].values()))["forcefield"]
-    out = [f"`inputs/{sm['system']}` ({sm['atoms']} atoms), NVE from its `conf.gro` for {sm['ps']:g} ps per run, "
-           f"{sm['threads']} OpenMP threads per run (the crossover is stated at this thread count). Interactions: LJ "
-           f"and reaction field (eps_rf = infinity) both switched to zero between {ff['vdw_switch']:g} and "
-           f"{ff['cutoff']:g} nm (`vdw_modifier` and `coulomb_modifier` = \"potential-switch\"), neighbour skin "
-           f"{ff['neighbor_skin']:g} nm, the pair potential C^k at both ends of the switch for k = "
-           f"{', '.join(str(k) for k in sm['levels'])} (`switch_smoothness`; 2 is GROMACS's quintic "
-           f"potential-switch). vi solver tolerance {sm['solver_tolerance']:g} nm/ps "
-           f"(max_iterations {sm['max_iterations']}), constraint tolerance {sm['constraint_tolerance']:g}; energies "
-           f"every {sm['energy_interval'] * 1000:g} fs in every run. Each integrator runs its steps in turn until "
-           f"the first that is not stable or does not converge. The section's runs took "
-           f"{sm['run_minutes']:.1f} min of wall time.\n",
-           "![RMS fluctuation vs time step](smooth_rms.png)\n"]
+    intro = (f"`inputs/{sm['system']}` ({sm['atoms']} atoms), NVE from its `conf.gro` for {sm['ps']:g} ps per run, "
+             f"{sm['threads']} OpenMP threads per run (the crossover is stated at this thread count). Interactions: LJ "
+             f"and reaction field (eps_rf = infinity) both switched to zero between {ff['vdw_switch']:g} and "
+             f"{ff['cutoff']:g} nm (`vdw_modifier` and `coulomb_modifier` = \"potential-switch\"), neighbour skin "
+             f"{ff['neighbor_skin']:g} nm, the pair potential C^k at both ends of the switch for k = "
+             f"{', '.join(str(k) for k in sm['levels'])} (`switch_smoothness`; 2 is GROMACS's quintic "
+             f"potential-switch). " + _solver_text(sm))
+    return "\n".join([intro] + _levels_body(sm, "smooth") +
+                     ["### The price of smoothness\n", price_section(sm["price"])])
+
+
+def pme_section(pm):
+    ff = next(iter(pm["levels"].values()))["forcefield"]
+    intro = (f"`inputs/{pm['system']}` ({pm['atoms']} atoms), NVE from its `conf.gro` for {pm['ps']:g} ps per run, "
+             f"{pm['threads']} OpenMP threads per run. Interactions: particle-mesh Ewald (`coulomb = \"pme\"`, "
+             f"ewald_rtol {ff['ewald_rtol']:g}, fourier_spacing {ff['fourier_spacing']:g} nm), its real space and LJ "
+             f"switched to zero between {ff['coulomb_switch']:g} and {ff['cutoff']:g} nm with beta chosen so that "
+             f"erfc(beta {ff['coulomb_switch']:g} nm) = ewald_rtol (docs/pme.md), neighbour skin "
+             f"{ff['neighbor_skin']:g} nm. A level \"pP Ck\" is B-spline order P (`pme_order`: the mesh energy is "
+             f"C^(P-2)) with the switch C^k. " + _solver_text(pm))
+    return "\n".join([intro] + _levels_body(pm, "pme") +
+                      ["The price of smoothness on PME water (O-O RDF and D at these settings against gmx_d's "
+                       "standard PME run) is not part of this study yet.\n"])
+
+
+def _solver_text(sm):
+    return (f"vi solver tolerance {sm['solver_tolerance']:g} nm/ps (max_iterations {sm['max_iterations']}), constraint "
+            f"tolerance {sm['constraint_tolerance']:g}; energies every {sm['energy_interval'] * 1000:g} fs in every "
+            "run. Each integrator runs its steps in turn until the first that is not stable or does not converge. "
+            f"The section's runs took {sm['run_minutes']:.1f} min of wall time.\n")
+
+
+def _levels_body(sm, figures_prefix):
+    """Slopes, RATTLE's equivalent cost, the crossover and every run, for the levels of section 6 or 7."""
+    out = [f"![RMS fluctuation vs time step]({figures_prefix}_rms.png)\n"]
     rows, dts, stated = smooth_slopes(sm)
     out.append(f"**Fitted slopes** of log(RMS fluctuation) vs log(dt) (study.energy.fit_order: the three smallest "
                f"stable steps whose RMS fluctuation is above 10 x {num(sm['floor'], 2)} kJ/mol, the round-off and "
@@ -444,11 +472,11 @@ def smooth_section(sm):
     out.append(table(["smoothness", "integrator", "nominal order", "slope of RMS vs dt", "fitted over dt (fs)",
                       "local slopes", "largest stable dt (fs)"] + [f"RMS at {fs(d)} fs (kJ/mol)" for d in dts], rows))
     crossover_rows, summary = smooth_crossover_rows(sm)
-    fits = ", ".join(f"C{k}: cost ∝ error^-{level['rattle_fit'][1]:.2f}" for k, level in sm["levels"].items()
+    fits = ", ".join(f"{level_name(k)}: cost ∝ error^-{level['rattle_fit'][1]:.2f}" for k, level in sm["levels"].items()
                      if level["rattle_fit"])
-    out += ["![work-precision, smooth interactions](smooth_work_precision.png)\n",
+    out += [f"![work-precision]({figures_prefix}_work_precision.png)\n",
             "**RATTLE's equivalent cost** of every stable vi run: the wall time per ps RATTLE needs for the same RMS "
-            "fluctuation, interpolated in log-log between RATTLE's stable runs at the same smoothness where the "
+            "fluctuation, interpolated in log-log between RATTLE's stable runs at the same level where the "
             "fluctuation lies in their range, else extrapolated with the power law fitted to them (study.energy."
             f"equivalent_cost; RATTLE's measured laws: {fits or 'none'}; an exact dt² law is error^-0.50). "
             "Crossover accuracy: the RMS fluctuation below which the vi is cheaper than RATTLE (study.energy."
@@ -465,11 +493,10 @@ def smooth_section(sm):
                 e = r.get("rattle_equivalent")
                 extra = [num(e["wall_per_ps"], 3), _equivalent_text(e), num(e["ratio"], 3)] if e else ["-"] * 3
                 run_rows.append(row[:-1] + extra + row[-1:])
-        out.append(details(f"All runs at smoothness C{k} ({len(run_rows)})",
+        out.append(details(f"All runs at {level_name(k)} ({len(run_rows)})",
                            table(RUN_HEADER[:-1] + ["RATTLE wall s/ps at this RMS", "RATTLE's cost",
                                                     "RATTLE time / vi time", "command"], run_rows)))
-    out += ["### The price of smoothness\n", price_section(sm["price"])]
-    return "\n".join(out)
+    return out
 
 
 def price_section(price):
@@ -540,7 +567,7 @@ def closing_note(scan, reference_dts):
     return "\n".join(out)
 
 
-def write(path, plan, meta, scan, order, long, md, smooth):
+def write(path, plan, meta, scan, order, long, md, smooth, pme):
     quick_banner = ("> **Quick mode** (`--quick`): a smoke test with runs far too short for conclusions; the "
                     "committed full report is `validation/report/README.md`.\n\n" if plan.quick else "")
     text = [
@@ -548,7 +575,7 @@ def write(path, plan, meta, scan, order, long, md, smooth):
         quick_banner,
         f"Regenerated by `{meta['command']}` on {meta['date']} from git {meta['git']}; vimd binary "
         f"`{meta['vimd']}` ({meta['vimd_state']}); {meta['threads']} OpenMP thread(s) per run"
-        + (f" ({smooth['threads']} in section 6)" if smooth else "") + ". The runs took "
+        + (f" ({(smooth or pme)['threads']} in sections 6 and 7)" if smooth or pme else "") + ". The runs took "
         f"{meta['run_minutes']:.1f} min of wall time"
         + (" when they ran (this invocation reused them: `--reuse`, same configs and binary)" if meta["reuse"]
            else f", the whole study {meta['minutes']:.1f} min")
@@ -562,7 +589,8 @@ def write(path, plan, meta, scan, order, long, md, smooth):
         "0. [Set-up and definitions](#set-up-and-definitions)\n1. [Energy drift and fluctuation vs time step]"
         "(#1-energy-drift-and-fluctuation-vs-time-step)\n2. [Work-precision](#2-work-precision)\n3. [Order study]"
         "(#3-order-study)\n4. [Long runs](#4-long-runs)\n5. [MDAnalysis analyses](#5-mdanalysis-analyses)\n"
-        "6. [Smooth interactions](#6-smooth-interactions)\n7. [Closing note](#closing-note)\n",
+        "6. [Smooth interactions](#6-smooth-interactions)\n7. [PME water](#7-pme-water)\n"
+        "8. [Closing note](#closing-note)\n",
         "## Set-up and definitions\n",
         "- **Energy drift**: slope of a least-squares line through the total energy of the run, per atom "
         "(kJ/mol/ps/atom). **RMS fluctuation**: root mean square of the total energy about that line (kJ/mol). "
@@ -592,6 +620,8 @@ def write(path, plan, meta, scan, order, long, md, smooth):
         mdanalysis_section(md, long) if md else "Not run.\n",
         "## 6. Smooth interactions\n",
         smooth_section(smooth) if smooth else "Not run.\n",
+        "## 7. PME water\n",
+        pme_section(pme) if pme else "Not run.\n",
         "## Closing note\n",
         closing_note(scan, meta["closing_dts"]),
     ]

@@ -7,7 +7,7 @@ import numpy as np
 from gmx_common import ROOT
 from . import energy, figures, trajectories
 from .plan import (GMX_VARIANTS, LONG_VARIANTS, RATTLE, SCAN_VARIANTS, SWITCHED_RATTLE, SYSTEMS, fs, order_variants,
-                   relative, rk, scan_length, switched, vi)
+                   pme_water, relative, rk, scan_length, switched, vi)
 
 
 def energy_every(dt, interval):
@@ -293,6 +293,38 @@ def smooth(runner, plan, report_dir, log, long):
             "constraint_tolerance": plan.constraint_tolerance, "energy_interval": plan.smooth_energy_interval_ps,
             "floor": plan.smooth_floor, "levels": levels, "price": price,
             "run_minutes": (runner.run_seconds - started) / 60}
+
+
+# ------------------------------------------------------------------ 7: PME water
+def pme(runner, plan, report_dir, log):
+    """Section 7: section 6's comparison on PME water, its real space and LJ switched to zero
+    smoothly, at each B-spline order and smoothness of the plan: slopes of RMS fluctuation vs dt,
+    wall time per ps, RATTLE's equivalent cost and the crossover."""
+    started = runner.run_seconds
+    base = SYSTEMS[plan.pme_system]
+    solver = {"solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations}
+    levels = {}
+    for level in dict.fromkeys(entry.level for entry in plan.pme_series):
+        entries = [e for e in plan.pme_series if e.level == level]
+        system = pme_water(base, plan.pme_cutoff, plan.pme_switch, plan.pme_skin, entries[0].pme_order,
+                           entries[0].smoothness)
+        tag = f"pme-{base.name}-p{entries[0].pme_order}-C{entries[0].smoothness}"
+        series = {}
+        for entry in entries:
+            v = entry.variant
+            log(f"[pme {level}] {v.label}")
+            series[v.key] = _sweep(lambda dt: runner.vimd(
+                system, v, dt, plan.pme_ps, tag, exact_every(dt, plan.pme_energy_interval_ps), 0,
+                solver if v.family == "vi" else None, tolerance=plan.constraint_tolerance,
+                stability_fraction=plan.stability_fraction, threads=plan.smooth_threads), entry.dts)
+        levels[level] = _smooth_level(system, series, {e.variant.key: e.variant.order for e in entries},
+                                      plan.smooth_floor) | {"pme_order": entries[0].pme_order}
+    figures.smooth_rms(levels, plan.smooth_floor, report_dir / "pme_rms.png")
+    figures.smooth_work_precision(levels, report_dir / "pme_work_precision.png")
+    return {"system": base.name, "atoms": base.atoms, "ps": plan.pme_ps, "threads": plan.smooth_threads,
+            "solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations,
+            "constraint_tolerance": plan.constraint_tolerance, "energy_interval": plan.pme_energy_interval_ps,
+            "floor": plan.smooth_floor, "levels": levels, "run_minutes": (runner.run_seconds - started) / 60}
 
 
 def _smooth_level(system, series, orders, floor):
