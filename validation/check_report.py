@@ -86,6 +86,21 @@ class Checker:
         return self.check(value is not None and lo <= value <= hi, f"{what} = {value} not in [{lo}, {hi}]")
 
 
+def check_slopes(c, rows, where):
+    """Sections 6 and 7: a RATTLE row at every level, its slope of RMS fluctuation vs dt 1.5-2.6, the
+    others' in [0.5, nominal + 1.5] (the smoothness may cap them)."""
+    for level in {row[0] for row in rows}:
+        c.check(any(r[0] == level and r[1] == "rattle" for r in rows), f"no rattle row at {level}{where}")
+    for row in rows:
+        slope, nominal = number(row[3]), int(row[2])
+        if row[1] == "rattle":
+            c.in_range(slope, 1.5, 2.6, f"slope of RMS fluctuation vs dt of rattle at {row[0]}{where}")
+        elif slope is not None:
+            c.in_range(slope, 0.5, nominal + 1.5, f"slope of RMS fluctuation vs dt of {row[1]} at {row[0]}{where}")
+        else:
+            c.check(row[3].startswith("n/a"), f"slope of {row[1]} at {row[0]}{where}: unexpected '{row[3]}'")
+
+
 def check_report(report_dir):
     c = Checker()
     readme = report_dir / "README.md"
@@ -199,16 +214,7 @@ def check_report(report_dir):
     # Section 6: slopes of RMS fluctuation vs dt, RATTLE's equivalent cost, the price of smoothness.
     header, rows = column("slope of RMS vs dt")
     c.check(rows, "no smooth-interactions slope table")
-    for smoothness in {row[0] for row in rows}:
-        c.check(any(r[0] == smoothness and r[1] == "rattle" for r in rows), f"no rattle row at smoothness {smoothness}")
-    for row in rows:
-        slope, nominal = number(row[3]), int(row[2])
-        if row[1] == "rattle":
-            c.in_range(slope, 1.5, 2.6, f"slope of RMS fluctuation vs dt of rattle at {row[0]}")
-        elif slope is not None:
-            c.in_range(slope, 0.5, nominal + 1.5, f"slope of RMS fluctuation vs dt of {row[1]} at {row[0]}")
-        else:
-            c.check(row[3].startswith("n/a"), f"slope of {row[1]} at {row[0]}: unexpected '{row[3]}'")
+    check_slopes(c, rows, "")
     header, rows = column("best RATTLE time / vi time")
     c.check(rows, "no smooth-interactions crossover table")
     for row in rows:
@@ -231,12 +237,7 @@ def check_report(report_dir):
     c.check("**Crossover:**" in pme_text, "section 7 states no crossover")
     slopes = [row for _, h, rows in parse_tables(pme_text) if "slope of RMS vs dt" in h for row in rows]
     c.check(slopes, "no PME-water slope table")
-    for row in slopes:
-        slope, nominal = number(row[3]), int(row[2])
-        if row[1] == "rattle":
-            c.in_range(slope, 1.5, 2.6, f"slope of RMS fluctuation vs dt of rattle at {row[0]} (PME)")
-        elif slope is not None:
-            c.in_range(slope, 0.5, nominal + 1.5, f"slope of RMS fluctuation vs dt of {row[1]} at {row[0]} (PME)")
+    check_slopes(c, slopes, " (PME)")
     return c
 
 

@@ -430,8 +430,7 @@ def smooth_slopes(sm):
 
 def smooth_section(sm):
     ff = next(iter(sm["levels"].values()))["forcefield"]
-    intro = (f"`inputs/{sm['system']}` ({sm['atoms']} atoms), NVE from its `conf.gro` for {sm['ps']:g} ps per run, "
-             f"{sm['threads']} OpenMP threads per run (the crossover is stated at this thread count). Interactions: LJ "
+    intro = (_runs_text(sm) + "Interactions: LJ "
              f"and reaction field (eps_rf = infinity) both switched to zero between {ff['vdw_switch']:g} and "
              f"{ff['cutoff']:g} nm (`vdw_modifier` and `coulomb_modifier` = \"potential-switch\"), neighbour skin "
              f"{ff['neighbor_skin']:g} nm, the pair potential C^k at both ends of the switch for k = "
@@ -443,8 +442,7 @@ def smooth_section(sm):
 
 def pme_section(pm):
     ff = next(iter(pm["levels"].values()))["forcefield"]
-    intro = (f"`inputs/{pm['system']}` ({pm['atoms']} atoms), NVE from its `conf.gro` for {pm['ps']:g} ps per run, "
-             f"{pm['threads']} OpenMP threads per run. Interactions: particle-mesh Ewald (`coulomb = \"pme\"`, "
+    intro = (_runs_text(pm) + "Interactions: particle-mesh Ewald (`coulomb = \"pme\"`, "
              f"ewald_rtol {ff['ewald_rtol']:g}, fourier_spacing {ff['fourier_spacing']:g} nm), its real space and LJ "
              f"switched to zero between {ff['coulomb_switch']:g} and {ff['cutoff']:g} nm with beta chosen so that "
              f"erfc(beta {ff['coulomb_switch']:g} nm) = ewald_rtol (docs/pme.md), neighbour skin "
@@ -453,6 +451,11 @@ def pme_section(pm):
     return "\n".join([intro] + _levels_body(pm, "pme") +
                       ["The price of smoothness on PME water (O-O RDF and D at these settings against gmx_d's "
                        "standard PME run) is not part of this study yet.\n"])
+
+
+def _runs_text(sm):
+    return (f"`inputs/{sm['system']}` ({sm['atoms']} atoms), NVE from its `conf.gro` for {sm['ps']:g} ps per run, "
+            f"{sm['threads']} OpenMP threads per run (the crossover is stated at this thread count). ")
 
 
 def _solver_text(sm):

@@ -270,29 +270,40 @@ def smooth(runner, plan, report_dir, log, long):
     crossover; then what the switch does to the RDF and D (the price of smoothness)."""
     started = runner.run_seconds
     base = SYSTEMS[plan.smooth_system]
-    solver = {"solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations}
     levels = {}
     for k in sorted({entry.smoothness for entry in plan.smooth_series}):
         system = switched(base, k)
-        tag = f"smooth-{base.name}-C{k}"
-        series = {}
-        for entry in (e for e in plan.smooth_series if e.smoothness == k):
-            v = entry.variant
-            log(f"[smooth C{k}] {v.label}")
-            series[v.key] = _sweep(lambda dt: runner.vimd(
-                system, v, dt, plan.smooth_ps, tag, exact_every(dt, plan.smooth_energy_interval_ps), 0,
-                solver if v.family == "vi" else None, tolerance=plan.constraint_tolerance,
-                stability_fraction=plan.stability_fraction, threads=plan.smooth_threads), entry.dts)
+        entries = [e for e in plan.smooth_series if e.smoothness == k]
+        series = _level_runs(runner, plan, system, entries, plan.smooth_ps, plan.smooth_energy_interval_ps,
+                             f"smooth-{base.name}-C{k}", lambda label: log(f"[smooth C{k}] {label}"))
         orders = {e.variant.key: e.variant.order for e in plan.smooth_series}
         levels[k] = _smooth_level(system, series, orders, plan.smooth_floor)
     figures.smooth_rms(levels, plan.smooth_floor, report_dir / "smooth_rms.png")
     figures.smooth_work_precision(levels, report_dir / "smooth_work_precision.png")
     price = price_of_smoothness(runner, plan, long, report_dir, log)
-    return {"system": base.name, "atoms": base.atoms, "ps": plan.smooth_ps, "threads": plan.smooth_threads,
+    return _levels_result(runner, plan, base, plan.smooth_ps, plan.smooth_energy_interval_ps, levels, started) | {
+        "price": price}
+
+
+def _level_runs(runner, plan, system, entries, ps, interval, tag, log):
+    """Each entry's integrator at its steps on `system` (sections 6 and 7): {variant key: runs}."""
+    solver = {"solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations}
+    series = {}
+    for entry in entries:
+        v = entry.variant
+        log(v.label)
+        series[v.key] = _sweep(lambda dt: runner.vimd(
+            system, v, dt, ps, tag, exact_every(dt, interval), 0, solver if v.family == "vi" else None,
+            tolerance=plan.constraint_tolerance, stability_fraction=plan.stability_fraction,
+            threads=plan.smooth_threads), entry.dts)
+    return series
+
+
+def _levels_result(runner, plan, base, ps, interval, levels, started):
+    return {"system": base.name, "atoms": base.atoms, "ps": ps, "threads": plan.smooth_threads,
             "solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations,
-            "constraint_tolerance": plan.constraint_tolerance, "energy_interval": plan.smooth_energy_interval_ps,
-            "floor": plan.smooth_floor, "levels": levels, "price": price,
-            "run_minutes": (runner.run_seconds - started) / 60}
+            "constraint_tolerance": plan.constraint_tolerance, "energy_interval": interval,
+            "floor": plan.smooth_floor, "levels": levels, "run_minutes": (runner.run_seconds - started) / 60}
 
 
 # ------------------------------------------------------------------ 7: PME water
@@ -302,29 +313,18 @@ def pme(runner, plan, report_dir, log):
     wall time per ps, RATTLE's equivalent cost and the crossover."""
     started = runner.run_seconds
     base = SYSTEMS[plan.pme_system]
-    solver = {"solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations}
     levels = {}
     for level in dict.fromkeys(entry.level for entry in plan.pme_series):
         entries = [e for e in plan.pme_series if e.level == level]
-        system = pme_water(base, plan.pme_cutoff, plan.pme_switch, plan.pme_skin, entries[0].pme_order,
-                           entries[0].smoothness)
-        tag = f"pme-{base.name}-p{entries[0].pme_order}-C{entries[0].smoothness}"
-        series = {}
-        for entry in entries:
-            v = entry.variant
-            log(f"[pme {level}] {v.label}")
-            series[v.key] = _sweep(lambda dt: runner.vimd(
-                system, v, dt, plan.pme_ps, tag, exact_every(dt, plan.pme_energy_interval_ps), 0,
-                solver if v.family == "vi" else None, tolerance=plan.constraint_tolerance,
-                stability_fraction=plan.stability_fraction, threads=plan.smooth_threads), entry.dts)
+        p, k = entries[0].pme_order, entries[0].smoothness
+        system = pme_water(base, plan.pme_cutoff, plan.pme_switch, plan.pme_skin, p, k)
+        series = _level_runs(runner, plan, system, entries, plan.pme_ps, plan.pme_energy_interval_ps,
+                             f"pme-{base.name}-p{p}-C{k}", lambda label: log(f"[pme {level}] {label}"))
         levels[level] = _smooth_level(system, series, {e.variant.key: e.variant.order for e in entries},
-                                      plan.smooth_floor) | {"pme_order": entries[0].pme_order}
+                                      plan.smooth_floor) | {"pme_order": p}
     figures.smooth_rms(levels, plan.smooth_floor, report_dir / "pme_rms.png")
     figures.smooth_work_precision(levels, report_dir / "pme_work_precision.png")
-    return {"system": base.name, "atoms": base.atoms, "ps": plan.pme_ps, "threads": plan.smooth_threads,
-            "solver_tolerance": plan.smooth_solver_tolerance, "max_iterations": plan.smooth_max_iterations,
-            "constraint_tolerance": plan.constraint_tolerance, "energy_interval": plan.pme_energy_interval_ps,
-            "floor": plan.smooth_floor, "levels": levels, "run_minutes": (runner.run_seconds - started) / 60}
+    return _levels_result(runner, plan, base, plan.pme_ps, plan.pme_energy_interval_ps, levels, started)
 
 
 def _smooth_level(system, series, orders, floor):
