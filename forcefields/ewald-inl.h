@@ -100,17 +100,23 @@ HWY_INLINE void ewald_hessian(const EwaldRealSpace& e, T qq, T rinv, T r2, T& a,
 }
 
 // Excluded pair inside the cut-off: φ = −qq erf(βr)/r, taking back what the mesh counts of it.
+// Its force factor per unit qq, (G − erf(βr)/r)/r², G = 2β/√π e^(−β²r²); sets erf(βr)/r and G.
+inline double ewald_excluded_slope(const EwaldRealSpace& e, double r2, double& erf_r, double& gauss) {
+  const double r = std::sqrt(r2);
+  erf_r = std::erf(e.beta * r) / r;
+  gauss = e.beta * M_2_SQRTPI * std::exp(-e.beta * e.beta * r2);
+  return (gauss - erf_r) / r2;
+}
 inline void ewald_excluded_energy_force(const EwaldRealSpace& e, double qq, double r2, double& v, double& g) {
-  const double r = std::sqrt(r2), erf_r = std::erf(e.beta * r) / r;
-  const double gauss = e.beta * M_2_SQRTPI * std::exp(-e.beta * e.beta * r2);
+  double erf_r, gauss;
+  g = qq * ewald_excluded_slope(e, r2, erf_r, gauss);
   v = -qq * erf_r;
-  g = qq * (gauss - erf_r) / r2;
 }
 inline void ewald_excluded_hessian(const EwaldRealSpace& e, double qq, double r2, double& a, double& b) {
-  const double r = std::sqrt(r2), erf_r = std::erf(e.beta * r) / r;
-  const double gauss = e.beta * M_2_SQRTPI * std::exp(-e.beta * e.beta * r2);
-  a = qq * (erf_r - gauss) / r2;
-  b = qq * (3 * (gauss - erf_r) / r2 + 2 * e.beta * e.beta * gauss) / r2;
+  double erf_r, gauss;
+  const double slope = ewald_excluded_slope(e, r2, erf_r, gauss);
+  a = -qq * slope;
+  b = qq * (3 * slope + 2 * e.beta * e.beta * gauss) / r2;
 }
 
 // The excluded-pair terms of slots i and j at distance² r2 < cutoff², as the pair loop calls them.
