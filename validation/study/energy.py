@@ -87,42 +87,99 @@ def reference_cost(front, fit, err):
     return np.where(measured, interpolated, fit[0] * err ** -fit[1]), measured
 
 
-def equivalent_cost(reference, err):
-    """What the reference integrator (RATTLE), given as (cost, error) points of its stable runs, costs
-    at error err: (cost, "interpolated" | "extrapolated"), or None with fewer than two points."""
-    front = pareto(reference)
-    if len(front) < 2:
+def _reference_curves(references):
+    """{key: (Pareto front, power law)} of the references with at least two points on their front."""
+    fronts = {key: pareto(points) for key, points in references.items()}
+    return {key: (front, power_fit(front)) for key, front in fronts.items() if len(front) >= 2}
+
+
+def _cheapest(curves, err):
+    costs, measured = [], []
+    for front, fit in curves.values():
+        cost, inside = reference_cost(front, fit, err)
+        costs.append(cost)
+        measured.append(inside)
+    costs, measured = np.array(costs), np.array(measured)
+    best, columns = costs.argmin(axis=0), np.arange(len(err))
+    return costs[best, columns], [list(curves)[i] for i in best], measured[best, columns]
+
+
+def cheapest_reference(references, err):
+    """The cheapest of several reference integrators (RATTLE and its compositions) at error(s) err,
+    each given as (cost, error) points of its stable runs; references with fewer than two points on
+    their Pareto front are left out. Each one's cost is interpolated in log-log on its front and
+    extrapolated beyond it with its power law (reference_cost). Returns (cost, key of the cheapest,
+    whether its cost was measured) per error, or None without any usable reference."""
+    curves = _reference_curves(references)
+    if not curves:
         return None
-    cost, measured = reference_cost(front, power_fit(front), err)
-    return float(cost), "interpolated" if bool(measured) else "extrapolated"
+    return _cheapest(curves, np.atleast_1d(np.asarray(err, dtype=float)))
 
 
-def crossover(reference, candidate):
-    """Where a candidate integrator's cost curve crosses the reference's (RATTLE's), both given as
-    (cost, error) points of stable runs. Compared on the candidate's own error range: the
-    reference's cost there is interpolated between its measured points and, below its smallest
-    measured error, extrapolated with its power law cost = A error^-k (fitted to its Pareto front;
-    RATTLE's k is ~1/2 for a second-order method). The candidate's curve is never extrapolated.
-    Returns kind ("cheaper throughout" | "dearer throughout" | "crossing" | "no data"), the
-    compared range, the cost-ratio range, crossings (error values) with whether each lies where
-    the reference was measured, and whether the candidate is the cheaper one at the small-error end."""
-    ref, cand = pareto(reference), pareto(candidate)
-    out = {"kind": "no data", "reference_points": len(ref), "candidate_points": len(cand)}
-    if len(ref) < 2 or not cand:
+def measured_cost(points, err):
+    """An integrator's cost at error err, interpolated in log-log on the Pareto front of its (cost,
+    error) points; None outside the errors it was measured at (never extrapolated)."""
+    front = pareto(points)
+    if not front or not front[0][1] <= err <= front[-1][1]:
+        return None
+    return float(np.exp(_log_interp(front, err))) if len(front) > 1 else front[0][0]
+
+
+def equal_accuracy(series_points, is_peer):
+    """Work-precision at equal accuracy: at each decade of RMS fluctuation inside the measured range,
+    every integrator's measured_cost, the cheapest peer and the cheapest other integrator there, and
+    the peer's cost over the other's. series_points: {key: (cost, error) points}."""
+    errors = [e for points in series_points.values() for _, e in points]
+    if not errors:
+        return []
+    rows = []
+    for exponent in range(math.floor(math.log10(max(errors))), math.ceil(math.log10(min(errors))) - 1, -1):
+        err = 10.0 ** exponent
+        costs = {key: measured_cost(points, err) for key, points in series_points.items()}
+        best = {}
+        for side, member in (("peer", is_peer), ("candidate", lambda key: not is_peer(key))):
+            known = {key: c for key, c in costs.items() if c is not None and member(key)}
+            best[side] = min(known, key=known.get) if known else None
+        ratio = (costs[best["peer"]] / costs[best["candidate"]]) if best["peer"] and best["candidate"] else None
+        rows.append({"error": err, "costs": costs, "best_peer": best["peer"], "best_candidate": best["candidate"],
+                     "peer_over_candidate": ratio})
+    return rows
+
+
+def crossover(references, candidate):
+    """Where a candidate integrator's cost curve crosses the cheapest reference's (RATTLE, or the best
+    of RATTLE and its compositions), the references given as {key: (cost, error) points of stable
+    runs}, the candidate as such points. Compared on the candidate's own error range up to the
+    largest error any reference reached: each reference's cost there as cheapest_reference takes it
+    (interpolated between its measured points, below its smallest measured error extrapolated with
+    its power law cost = A error^-k; RATTLE's k is ~1/2 for a second-order method). The candidate's
+    curve is never extrapolated. Returns kind ("cheaper throughout" | "dearer throughout" |
+    "crossing" | "no data"), the compared range, the cost-ratio range, crossings (error values) with
+    whether each lies where the reference was measured, whether the candidate is the cheaper one at
+    the small-error end, and which reference is the cheapest where (segments of the range)."""
+    curves, cand = _reference_curves(references), pareto(candidate)
+    out = {"kind": "no data", "reference_points": max((len(pareto(p)) for p in references.values()), default=0),
+           "candidate_points": len(cand)}
+    if not curves or not cand:
         return out
-    fit = power_fit(ref)
-    out["fit_reference"] = fit
-    ref_lo, ref_hi = ref[0][1], ref[-1][1]
-    lo, hi = cand[0][1], min(cand[-1][1], ref_hi)
-    if lo > hi:  # the candidate is everywhere less accurate than RATTLE at its largest stable step
+    lo, hi = cand[0][1], min(cand[-1][1], max(front[-1][1] for front, _ in curves.values()))
+    if lo > hi:  # the candidate is everywhere less accurate than every reference at its largest stable step
         return out
     grid = np.exp(np.linspace(math.log(lo), math.log(hi), 400)) if hi > lo else np.array([lo])
     cand_cost = np.exp(_log_interp(cand, grid)) if len(cand) > 1 else np.full(len(grid), cand[0][0])
-    ref_cost, measured = reference_cost(ref, fit, grid)
+    ref_cost, owner, measured = _cheapest(curves, grid)
     ratio = cand_cost / ref_cost
     cheaper = ratio < 1
+    low_front, low_fit = curves[owner[0]]
+    segments = []
+    for i, key in enumerate(owner):
+        if segments and segments[-1][0] == key:
+            segments[-1][2] = float(grid[i])
+        else:
+            segments.append([key, float(grid[i]), float(grid[i])])
     out.update({"range": (lo, hi), "ratio_range": (float(ratio.min()), float(ratio.max())),
-                "extrapolated_below": ref_lo if lo < ref_lo else None,
+                "fit_reference": low_fit, "cheapest_reference": [tuple(s) for s in segments],
+                "extrapolated_below": low_front[0][1] if not measured[0] else None,
                 "cheaper_below": bool(cheaper[0])})
     if cheaper.all():
         out["kind"] = "cheaper throughout"

@@ -154,16 +154,23 @@ class PmeSeries:
         return f"p{self.pme_order} C{self.smoothness}"
 
 
+def _peers(dts):
+    """RATTLE, then each composition that has steps in dts, with their steps (fs)."""
+    return [("rattle", RATTLE)] + [(c, composed_rattle(c)) for c in COMPOSITION_ORDERS if c in dts]
+
+
 def pme_series(pme_order, smoothness, methods, dts):
-    """RATTLE at dts["rattle"] and vi [0,1] with each method at dts[method] (fs)."""
+    """RATTLE at dts["rattle"], each composition of RATTLE that dts names at its steps, and vi [0,1]
+    with each method at dts[method] (fs)."""
     return tuple(PmeSeries(pme_order, smoothness, v, tuple(x * FS for x in dts[key]))
-                 for key, v in [("rattle", RATTLE)] + [(m, vi(m, "b01")) for m in methods])
+                 for key, v in _peers(dts) + [(m, vi(m, "b01")) for m in methods])
 
 
 def smooth_series(smoothness, methods, biases, dts):
-    """RATTLE at dts["rattle"] and vi with each method and bias at dts[method] (a method's steps may
-    depend on the bias: dts[(method, bias)] wins)."""
-    out = [SmoothSeries(smoothness, RATTLE, tuple(x * FS for x in dts["rattle"]))]
+    """RATTLE at dts["rattle"], each composition of RATTLE that dts names at its steps, and vi with
+    each method and bias at dts[method] (a method's steps may depend on the bias: dts[(method, bias)]
+    wins)."""
+    out = [SmoothSeries(smoothness, v, tuple(x * FS for x in dts[key])) for key, v in _peers(dts)]
     for m in methods:
         for b in biases:
             out.append(SmoothSeries(smoothness, vi(m, b), tuple(x * FS for x in dts.get((m, b), dts[m]))))
@@ -247,6 +254,10 @@ class Plan:
     stability_fraction: float = 0.01   # max |E(t) - E(0)| allowed, as a fraction of <E_kin>
 
 
+# RATTLE's compositions in sections 6 and 7 (fs): each up to where its largest sub-step (|weight| x dt)
+# passes RATTLE's own stability limit on water; a sweep stops at the first unstable step anyway.
+PEER_DTS = {"yoshida4": (0.5, 1, 2), "suzuki4": (1, 2, 3), "kahan-li6": (1, 2, 3, 4), "kahan-li8": (2, 3, 4, 6)}
+
 FULL = Plan(
     quick=False,
     scan_systems=("water900", "polymer"),
@@ -289,10 +300,11 @@ FULL = Plan(
     smooth_system="water900",
     smooth_series=(
         smooth_series(4, ("rk4", "rk6", "rk8"), ("b01",),
-                      {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4, 6), "rk6": (1.5, 2, 3, 4), "rk8": (2, 3, 4)})
+                      {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4, 6), "rk6": (1.5, 2, 3, 4), "rk8": (2, 3, 4)}
+                      | PEER_DTS)
         + (SmoothSeries(4, vi("rk8", "bsym"), tuple(x * FS for x in (2, 3, 4))),)
         + smooth_series(6, ("rk6", "rk8"), ("b01",), {"rattle": (0.25, 0.5, 1, 2), "rk6": (2, 3, 4),
-                                                       "rk8": (2, 3, 4)})
+                                                       "rk8": (2, 3, 4)} | PEER_DTS)
         + smooth_series(2, ("rk4", "rk6", "rk8"), ("b01",), {"rattle": (0.25, 0.5, 1, 2), "rk4": (2, 3, 4, 6),
                                                               "rk6": (2, 3, 4, 6), "rk8": (3, 4, 6)})),
     smooth_ps=1.0,
@@ -313,9 +325,9 @@ FULL = Plan(
     pme_skin=0.1,
     pme_series=(pme_series(4, 4, ("rk4",), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4)})
                 + pme_series(8, 4, ("rk4", "rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4),
-                                                            "rk6": (2, 3, 4), "rk8": (2, 3, 4)})
+                                                            "rk6": (2, 3, 4), "rk8": (2, 3, 4)} | PEER_DTS)
                 + pme_series(12, 6, ("rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk6": (2, 3, 4),
-                                                      "rk8": (2, 3, 4)})),
+                                                      "rk8": (2, 3, 4)} | PEER_DTS)),
     pme_ps=1.0,
     pme_energy_interval_ps=0.012,
 )
@@ -345,7 +357,8 @@ QUICK = Plan(
     smooth_system="water216",
     # RATTLE's steps 4x apart: its cost per ps must fall with dt although start-up dominates such short runs
     # one bias: the smoke test needs every code path of the section, not both biases' figures
-    smooth_series=smooth_series(4, ("rk4", "rk8"), ("b01",), {"rattle": (0.5, 2), "rk4": (2, 4), "rk8": (2, 4)}),
+    smooth_series=smooth_series(4, ("rk4", "rk8"), ("b01",), {"rattle": (0.5, 2), "rk4": (2, 4), "rk8": (2, 4),
+                                                             "kahan-li6": (2, 4)}),
     smooth_ps=0.048,
     smooth_energy_interval_ps=0.004,
     smooth_solver_tolerance=1e-10,

@@ -129,37 +129,41 @@ def scan_section(sres):
 
 
 # ---------------------------------------------------------------- section 2
-def crossover_sentence(label, c, cost_name):
-    """One sentence for a candidate-vs-RATTLE crossover dict; also the error below which the
-    candidate is cheaper (or None) and whether that rests on RATTLE's measured curve or its fit."""
+def crossover_sentence(label, c, cost_name, reference="RATTLE"):
+    """One sentence for a candidate's crossover dict against `reference` (RATTLE, or the best peer:
+    the cheapest of RATTLE and its compositions); also the error below which the candidate is
+    cheaper (or None) and whether that rests on the reference's measured curve or its fit."""
     kind = c.get("kind")
     if kind == "no data":
         if c.get("reference_points", 0) < 2:
-            return (f"{label}: RATTLE's stable runs give fewer than two points of a cost curve (a run that is both "
-                    f"dearer and less accurate than another is not on it), so there is none to compare.", None, None)
+            return (f"{label}: {reference}'s stable runs give fewer than two points of a cost curve (a run that is "
+                    f"both dearer and less accurate than another is not on it), so there is none to compare.",
+                    None, None)
         if not c.get("candidate_points"):
             return f"{label}: no stable runs to compare.", None, None
-        return (f"{label} is less accurate at every step than RATTLE at its largest stable step: no common "
+        return (f"{label} is less accurate at every step than {reference} at its largest stable step: no common "
                 f"accuracy.", None, None)
     lo, hi = c["range"]
     r0, r1 = c["ratio_range"]
     below = c.get("extrapolated_below")
-    basis = (f" (RATTLE's cost below {num(below, 3)} kJ/mol extrapolated with its power law cost ∝ "
+    basis = (f" ({reference}'s cost below {num(below, 3)} kJ/mol extrapolated with its power law cost ∝ "
              f"error^-{c['fit_reference'][1]:.2f})" if below else "")
     if kind == "cheaper throughout":
-        return (f"{label} is cheaper than RATTLE in {cost_name} at every accuracy compared, RMS fluctuation "
-                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol ({num(r0, 3)}-{num(r1, 3)}x RATTLE's cost){basis}.",
+        return (f"{label} is cheaper than {reference} in {cost_name} at every accuracy compared, RMS fluctuation "
+                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol ({num(r0, 3)}-{num(r1, 3)}x {reference}'s cost){basis}.",
                 hi, "cheaper at every accuracy compared, the least accurate being this")
     if kind == "dearer throughout":
-        return (f"{label} costs more than RATTLE in {cost_name} at every accuracy compared, RMS fluctuation "
-                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol ({num(r0, 3)}-{num(r1, 3)}x RATTLE's cost){basis}.", None, None)
-    xs = ", ".join(f"{num(x, 3)} kJ/mol ({'measured' if m else 'RATTLE extrapolated'})" for x, m in c["crossings"])
+        return (f"{label} costs more than {reference} in {cost_name} at every accuracy compared, RMS fluctuation "
+                f"{num(lo, 3)}-{num(hi, 3)} kJ/mol ({num(r0, 3)}-{num(r1, 3)}x {reference}'s cost){basis}.",
+                None, None)
+    xs = ", ".join(f"{num(x, 3)} kJ/mol ({'measured' if m else reference + ' extrapolated'})"
+                   for x, m in c["crossings"])
     if c["cheaper_below"]:
         x, m = c["crossings"][0]
-        return (f"{label} is cheaper than RATTLE in {cost_name} for RMS fluctuation below {xs}, dearer above "
+        return (f"{label} is cheaper than {reference} in {cost_name} for RMS fluctuation below {xs}, dearer above "
                 f"(compared over {num(lo, 3)}-{num(hi, 3)} kJ/mol){basis}.", x,
-                "measured crossing" if m else "crossing with RATTLE's cost extrapolated")
-    return (f"{label} is cheaper than RATTLE in {cost_name} only above {xs} (compared over {num(lo, 3)}-"
+                "measured crossing" if m else f"crossing with {reference}'s cost extrapolated")
+    return (f"{label} is cheaper than {reference} in {cost_name} only above {xs} (compared over {num(lo, 3)}-"
             f"{num(hi, 3)} kJ/mol){basis}.", None, None)
 
 
@@ -330,16 +334,25 @@ def mdanalysis_section(md, long):
 
 
 # ---------------------------------------------------------------- section 6
-def _equivalent_text(e):
-    return "RATTLE's runs interpolated" if e["basis"] == "interpolated" else "RATTLE's power law extrapolated"
+def _labels(level):
+    return {key: runs[0]["label"] for key, runs in level["series"].items()}
 
 
-def best_equivalent(runs, basis=None):
-    """The stable run with the largest RATTLE time / vi time (only those whose RATTLE cost has this
-    basis, if given), or None."""
-    ranked = [r for r in runs if r["status"] == "ok" and "rattle_equivalent" in r
-              and basis in (None, r["rattle_equivalent"]["basis"])]
-    return max(ranked, key=lambda r: r["rattle_equivalent"]["ratio"]) if ranked else None
+def _equivalent_text(e, labels):
+    who = labels[e["peer"]]
+    return f"{who}'s runs interpolated" if e["basis"] == "interpolated" else f"{who}'s power law extrapolated"
+
+
+# What a run is compared with: its equivalent-cost entry, the level's crossovers, the reference's name.
+AGAINST = {"rattle": ("rattle_equivalent", "crossovers", "RATTLE"),
+           "peer": ("peer_equivalent", "peer_crossovers", "the best peer")}
+
+
+def best_equivalent(runs, name, basis=None):
+    """The stable run with the largest reference time / its time (only those whose reference cost has
+    this basis, if given), or None."""
+    ranked = [r for r in runs if r["status"] == "ok" and name in r and basis in (None, r[name]["basis"])]
+    return max(ranked, key=lambda r: r[name]["ratio"]) if ranked else None
 
 
 def level_name(k):
@@ -347,67 +360,104 @@ def level_name(k):
     return f"C{k}" if isinstance(k, int) else k
 
 
-def _ratio_text(k, label, run):
-    e = run["rattle_equivalent"]
-    return (f"**{num(e['ratio'], 3)}x** — {label} at {level_name(k)}, dt = {fs(run['dt'])} fs, reaches an RMS fluctuation of "
-            f"{num(run['stats']['rms_fluctuation'], 3)} kJ/mol in {num(run['cost']['wall_per_ps'], 3)} s per ps; "
-            f"RATTLE needs {num(e['wall_per_ps'], 3)} s per ps for it ({_equivalent_text(e)})")
+def _ratio_text(t, name):
+    run, labels = t["best"] if name == "best" else t["best_interpolated"], t["labels"]
+    e = run[t["name"]]
+    return (f"**{num(e['ratio'], 3)}x** — {t['label']} at {level_name(t['k'])}, dt = {fs(run['dt'])} fs, reaches an "
+            f"RMS fluctuation of {num(run['stats']['rms_fluctuation'], 3)} kJ/mol in "
+            f"{num(run['cost']['wall_per_ps'], 3)} s per ps; {labels[e['peer']]} needs {num(e['wall_per_ps'], 3)} s "
+            f"per ps for it ({_equivalent_text(e, labels)})")
 
 
-def smooth_crossover_rows(sm):
-    """Per (smoothness, vi): the best wall-time ratio against RATTLE and the crossover accuracy."""
+def _cheapest_peers_text(c, labels):
+    segments = c.get("cheapest_reference") or []
+    if len(segments) < 2:
+        return f" Best peer throughout: {labels[segments[0][0]]}." if segments else ""
+    return " Best peer: " + ", ".join(f"{labels[key]} at {num(lo, 3)}-{num(hi, 3)} kJ/mol"
+                                       for key, lo, hi in segments) + "."
+
+
+def smooth_crossover_rows(sm, against):
+    """Per (level, integrator): the best wall-time ratio of the reference (against = "rattle": RATTLE,
+    for every composition and vi; "peer": the best peer, for every vi) to the integrator, and the
+    crossover accuracy."""
+    name, crossovers, reference = AGAINST[against]
     rows, summary = [], []
     for k, level in sm["levels"].items():
-        for key, c in level["crossovers"].items():
+        labels = _labels(level)
+        for key, c in level[crossovers].items():
             runs = level["series"][key]
-            label = runs[0]["label"]
-            sentence, threshold, how = crossover_sentence(label, c, "wall time per ps")
-            best = best_equivalent(runs)
+            label = labels[key]
+            sentence, threshold, how = crossover_sentence(label, c, "wall time per ps", reference)
+            if against == "peer":
+                sentence += _cheapest_peers_text(c, labels)
+            best = best_equivalent(runs, name)
             if best is None:
                 rows.append([level_name(k), label, "n/a", "-", "-", "-", "-", "-", sentence,
                              code(runs[0].get("command"))])
                 continue
-            e = best["rattle_equivalent"]
+            e = best[name]
             rows.append([level_name(k), label, f"**{num(e['ratio'], 3)}**", fs(best["dt"]),
                          num(best["stats"]["rms_fluctuation"], 3), num(best["cost"]["wall_per_ps"], 3),
-                         num(e["wall_per_ps"], 3), _equivalent_text(e),
+                         num(e["wall_per_ps"], 3), _equivalent_text(e, labels),
                          (f"{num(threshold, 3)} kJ/mol ({how}). " if threshold is not None else "") + sentence,
                          code(best["command"])])
-            summary.append({"k": k, "smoothness": level["smoothness"], "label": label, "best": best,
-                            "best_interpolated": best_equivalent(runs, "interpolated"),
-                            "threshold": threshold, "how": how})
+            if key.startswith("vi-"):
+                summary.append({"k": k, "smoothness": level["smoothness"], "label": label, "labels": labels,
+                                "name": name, "best": best,
+                                "best_interpolated": best_equivalent(runs, name, "interpolated"),
+                                "threshold": threshold, "how": how})
     return rows, summary
 
 
-def smooth_headline(sm, summary):
-    """The crossover statement of section 6, from the data: at smoothness >= 4 (else at any), the best
-    ratio, the best with RATTLE's cost interpolated between its runs, and the loosest accuracy from
-    which a variational integrator is cheaper than RATTLE."""
+def smooth_headline(summary, reference):
+    """A crossover statement of section 6 or 7 against `reference`, from the data: at smoothness >= 4
+    (else at any), the best ratio, the best with the reference's cost interpolated between its runs,
+    and the loosest accuracy from which a variational integrator is cheaper."""
     smooth_enough = [t for t in summary if t["smoothness"] >= 4] or summary
     if not smooth_enough:
-        return ("No variational integrator run could be compared with RATTLE (the reason per integrator is in the "
-                "table), so no crossover can be stated.")
+        return (f"No variational integrator run could be compared with {reference} (the reason per integrator is in "
+                "the table), so no crossover can be stated.")
     where = " at smoothness >= 4" if smooth_enough[0]["smoothness"] >= 4 else ""
-    ratio = lambda run: run["rattle_equivalent"]["ratio"]
+    name = smooth_enough[0]["name"]
+    ratio = lambda run: run[name]["ratio"]  # noqa: E731
     t = max(smooth_enough, key=lambda t: ratio(t["best"]))
-    text = [f"Best wall-time ratio RATTLE / vi{where}: {_ratio_text(t['k'], t['label'], t['best'])}."]
+    text = [f"Best wall-time ratio {reference} / vi{where}: {_ratio_text(t, 'best')}."]
     inside = [t for t in smooth_enough if t["best_interpolated"]]
     if inside:
         t = max(inside, key=lambda t: ratio(t["best_interpolated"]))
-        text.append(f"Best with RATTLE's cost interpolated between its measured runs: "
-                    f"{_ratio_text(t['k'], t['label'], t['best_interpolated'])}.")
+        text.append(f"Best with {reference}'s cost interpolated between measured runs: "
+                    f"{_ratio_text(t, 'interpolated')}.")
     else:
-        text.append("No vi run lies inside RATTLE's measured range of RMS fluctuation, so every ratio rests on "
-                    "RATTLE's extrapolated power law.")
+        text.append(f"No vi run lies inside {reference}'s measured range of RMS fluctuation, so every ratio rests on "
+                    "an extrapolated power law.")
     cheaper = [t for t in smooth_enough if t["threshold"] is not None]
     if cheaper:
         t = max(cheaper, key=lambda t: t["threshold"])
         text.append(f"Crossover accuracy: below an RMS fluctuation of **{num(t['threshold'], 3)} kJ/mol** a "
-                    f"variational integrator is cheaper in wall time than RATTLE ({t['label']} at {level_name(t['k'])}; "
-                    f"{t['how']}).")
+                    f"variational integrator is cheaper in wall time than {reference} ({t['label']} at "
+                    f"{level_name(t['k'])}; {t['how']}).")
     else:
-        text.append("No variational integrator is cheaper than RATTLE at any accuracy compared here.")
+        text.append(f"No variational integrator is cheaper than {reference} at any accuracy compared here.")
     return " ".join(text)
+
+
+def equal_accuracy_rows(sm):
+    """Per level and decade of RMS fluctuation: every integrator's wall time per ps there, the best
+    peer and the best vi named, and the peer's time over the vi's (study.energy.equal_accuracy)."""
+    keys = list(dict.fromkeys(key for level in sm["levels"].values() for key in level["series"]))
+    labels = {key: label for level in sm["levels"].values() for key, label in _labels(level).items()}
+    rows = []
+    for k, level in sm["levels"].items():
+        for row in level.get("equal_accuracy", []):
+            costs = row["costs"]
+            name = lambda key: labels[key] if key else "-"  # noqa: E731
+            rows.append([level_name(k), num(row["error"], 2)] + [num(costs[key], 3) if costs.get(key) else "-"
+                                                                 for key in keys]
+                        + [name(row["best_peer"]), name(row["best_candidate"]),
+                           f"**{num(row['peer_over_candidate'], 3)}**" if row["peer_over_candidate"] else "-"])
+    return ["level", "RMS fluct. (kJ/mol)"] + [f"{labels[key]} s/ps" for key in keys] + [
+        "best peer", "best vi", "best peer time / best vi time"], rows
 
 
 def smooth_slopes(sm):
@@ -474,31 +524,51 @@ def _levels_body(sm, figures_prefix):
                f"solver floor): " + ("; ".join(stated) if stated else "none (too few points)") + ".\n")
     out.append(table(["smoothness", "integrator", "nominal order", "slope of RMS vs dt", "fitted over dt (fs)",
                       "local slopes", "largest stable dt (fs)"] + [f"RMS at {fs(d)} fs (kJ/mol)" for d in dts], rows))
-    crossover_rows, summary = smooth_crossover_rows(sm)
+    crossover_rows, summary = smooth_crossover_rows(sm, "rattle")
+    peer_rows, peer_summary = smooth_crossover_rows(sm, "peer")
     fits = ", ".join(f"{level_name(k)}: cost ∝ error^-{level['rattle_fit'][1]:.2f}" for k, level in sm["levels"].items()
                      if level["rattle_fit"])
+    header, accuracy_rows = equal_accuracy_rows(sm)
     out += [f"![work-precision]({figures_prefix}_work_precision.png)\n",
-            "**RATTLE's equivalent cost** of every stable vi run: the wall time per ps RATTLE needs for the same RMS "
-            "fluctuation, interpolated in log-log between RATTLE's stable runs at the same level where the "
+            "**The peers** are RATTLE and its compositions (`composition`: yoshida4, suzuki4, kahan-li6, "
+            "kahan-li8), the constrained methods a variational integrator must beat. **Work-precision at equal "
+            "accuracy**: each integrator's wall time per ps at a decade of RMS fluctuation, interpolated in "
+            "log-log between its stable runs and shown only inside their range (study.energy.equal_accuracy); "
+            "the best peer and the best vi named at each.\n",
+            table(header, accuracy_rows),
+            "**Equivalent cost** of every stable run: the wall time per ps a reference needs for the same RMS "
+            "fluctuation, interpolated in log-log between its stable runs at the same level where the "
             "fluctuation lies in their range, else extrapolated with the power law fitted to them (study.energy."
-            f"equivalent_cost; RATTLE's measured laws: {fits or 'none'}; an exact dt² law is error^-0.50). "
-            "Crossover accuracy: the RMS fluctuation below which the vi is cheaper than RATTLE (study.energy."
-            "crossover).\n",
-            f"**Crossover:** {smooth_headline(sm, summary)}\n",
-            table(["smoothness", "integrator", "best RATTLE time / vi time", "at dt (fs)", "RMS fluct. (kJ/mol)",
-                   "vi wall s/ps", "RATTLE wall s/ps for it", "RATTLE's cost", "crossover accuracy", "command"],
+            f"cheapest_reference; RATTLE's measured laws: {fits or 'none'}; an exact dt² law is error^-0.50). "
+            "Against the best peer, the reference at each accuracy is the cheapest of the peers there. "
+            "Crossover accuracy: the RMS fluctuation below which the integrator is cheaper than the reference "
+            "(study.energy.crossover).\n",
+            f"**Crossover:** {smooth_headline(peer_summary, 'the best peer')} Against plain RATTLE: "
+            f"{smooth_headline(summary, 'RATTLE')}\n",
+            "Against the best peer (the cheapest of RATTLE and its compositions at each accuracy):\n",
+            table(["smoothness", "integrator", "best peer time / vi time", "at dt (fs)", "RMS fluct. (kJ/mol)",
+                   "vi wall s/ps", "peer wall s/ps for it", "peer's cost", "crossover accuracy", "command"],
+                  peer_rows),
+            "Against plain RATTLE (compositions and vi):\n",
+            table(["smoothness", "integrator", "best RATTLE time / its time", "at dt (fs)", "RMS fluct. (kJ/mol)",
+                   "its wall s/ps", "RATTLE wall s/ps for it", "RATTLE's cost", "crossover accuracy", "command"],
                   crossover_rows)]
     for k, level in sm["levels"].items():
         run_rows = []
+        labels = _labels(level)
         for runs in level["series"].values():
             for r in runs:
-                row = run_row(r)
-                e = r.get("rattle_equivalent")
-                extra = [num(e["wall_per_ps"], 3), _equivalent_text(e), num(e["ratio"], 3)] if e else ["-"] * 3
+                row, extra = run_row(r), []
+                for name in ("rattle_equivalent", "peer_equivalent"):
+                    e = r.get(name)
+                    extra += ([num(e["wall_per_ps"], 3), _equivalent_text(e, labels), num(e["ratio"], 3)] if e
+                              else ["-"] * 3)
                 run_rows.append(row[:-1] + extra + row[-1:])
         out.append(details(f"All runs at {level_name(k)} ({len(run_rows)})",
                            table(RUN_HEADER[:-1] + ["RATTLE wall s/ps at this RMS", "RATTLE's cost",
-                                                    "RATTLE time / vi time", "command"], run_rows)))
+                                                    "RATTLE time / its time", "best peer wall s/ps at this RMS",
+                                                    "best peer's cost", "best peer time / vi time", "command"],
+                                 run_rows)))
     return out
 
 

@@ -67,7 +67,8 @@ def scan(runner, plan, report_dir, log):
         for key, runs in series.items():
             if key == RATTLE.key:
                 continue
-            crossovers[key] = {cost: energy.crossover(_points(series[RATTLE.key], cost), _points(runs, cost))
+            crossovers[key] = {cost: energy.crossover({RATTLE.key: _points(series[RATTLE.key], cost)},
+                                                       _points(runs, cost))
                                for cost in ("wall_per_ps", "evaluations_per_ps")}
         figures.scan(name, series, report_dir / f"scan_{name}.png")
         figures.work_precision(name, series, report_dir / f"work_precision_{name}.png")
@@ -328,11 +329,13 @@ def pme(runner, plan, report_dir, log):
 
 
 def _smooth_level(system, series, orders, floor):
-    """Fitted slopes of RMS fluctuation vs dt, RATTLE's equivalent cost of every stable vi run and
-    the crossover of every vi against RATTLE in wall time per ps, at one smoothness."""
-    rattle = _points(series[RATTLE.key], "wall_per_ps")
-    front = energy.pareto(rattle)
-    fits, crossovers = {}, {}
+    """At one smoothness: fitted slopes of RMS fluctuation vs dt; for every stable vi run, RATTLE's
+    equivalent cost and the best peer's (the cheapest of RATTLE and its compositions at that
+    accuracy); the crossover of every vi against RATTLE and against the best peer, and of every
+    composition against RATTLE, in wall time per ps."""
+    peers = {key: _points(runs, "wall_per_ps") for key, runs in series.items() if is_peer(key)}
+    rattle = {RATTLE.key: peers[RATTLE.key]}
+    fits, crossovers, peer_crossovers = {}, {}, {}
     for key, runs in series.items():
         ok = [r for r in runs if r["status"] == "ok"]
         slope, used, local = energy.fit_order([r["dt"] for r in ok], [r["stats"]["rms_fluctuation"] for r in ok],
@@ -340,15 +343,30 @@ def _smooth_level(system, series, orders, floor):
         fits[key] = {"order": orders[key], "slope": slope, "fit_dts": [p[0] for p in used], "local_slopes": local}
         if key == RATTLE.key:
             continue
-        for r in ok:
-            equivalent = energy.equivalent_cost(rattle, r["stats"]["rms_fluctuation"])
-            if equivalent is not None:
-                cost, basis = equivalent
-                r["rattle_equivalent"] = {"wall_per_ps": cost, "basis": basis, "ratio": cost / r["cost"]["wall_per_ps"]}
         crossovers[key] = energy.crossover(rattle, _points(runs, "wall_per_ps"))
+        compared = {"rattle_equivalent": rattle}
+        if not is_peer(key):
+            peer_crossovers[key] = energy.crossover(peers, _points(runs, "wall_per_ps"))
+            compared["peer_equivalent"] = peers
+        for r in ok:
+            for name, references in compared.items():
+                cheapest = energy.cheapest_reference(references, r["stats"]["rms_fluctuation"])
+                if cheapest is not None:
+                    cost, owner, measured = (x[0] for x in cheapest)
+                    r[name] = {"wall_per_ps": float(cost), "peer": owner,
+                               "basis": "interpolated" if measured else "extrapolated",
+                               "ratio": float(cost) / r["cost"]["wall_per_ps"]}
+    front = energy.pareto(peers[RATTLE.key])
     return {"smoothness": system.forcefield["switch_smoothness"], "forcefield": system.forcefield,
             "note": system.note, "series": series, "fits": fits, "crossovers": crossovers,
-            "rattle_fit": energy.power_fit(front) if len(front) >= 2 else None}
+            "peer_crossovers": peer_crossovers, "rattle_fit": energy.power_fit(front) if len(front) >= 2 else None,
+            "equal_accuracy": energy.equal_accuracy({key: _points(runs, "wall_per_ps") for key, runs in series.items()},
+                                                    is_peer)}
+
+
+def is_peer(key):
+    """RATTLE and its compositions: the constrained methods a variational integrator must beat."""
+    return key == RATTLE.key or key.startswith(RATTLE.key + "-")
 
 
 PRICE_TAU_T = 0.1  # ps: v-rescale leaves the dynamics of water nearly unchanged (Bussi, Donadio, Parrinello 2007)
