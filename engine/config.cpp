@@ -299,6 +299,7 @@ class ConfigReader {
     double number() const override { return reader_.number(node_, key_.name); }
     long integer() const override { return reader_.integer(node_, key_.name); }
     std::string string() const override { return reader_.string(node_, key_.name); }
+    bool is_string() const override { return node_.is_string(); }
     std::vector<double> numbers() const override { return reader_.numbers(node_, key_.name); }
     fs::path existing_file() const override {
       return reader_.existing_file(node_, "[" + key_.section + "] " + key_.name);

@@ -65,6 +65,7 @@ struct IntegratorConfig {
   std::array<double, 2> bias = {0.0, 1.0};  // α⁻, α⁺
   std::string projection = "euclidean";     // "euclidean" | "mass"
   std::optional<double> solver_tolerance;   // default chosen per method by the integrator
+  bool solver_tolerance_auto = false;       // "auto": from the last step's truncation-error scale
   int max_iterations = 50;
   std::string acceleration = "none";        // "none" | "anderson"
   std::string solver_precision = "mixed";  // vi: "mixed" | "double" (VariationalSettings::mixed_precision_solve)

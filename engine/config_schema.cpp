@@ -354,15 +354,24 @@ std::vector<ConfigKey> make_keys() {
       "vi: the metric of the projection onto the constraint manifold"));
   k.push_back({"integrator",
                "solver_tolerance",
-               "number, nm/ps",
+               "number, nm/ps, or \"auto\"",
                {},
                kMustMatch,
-               "vi: the step equations' tolerance (unset: the method's default)",
+               "vi: the step equations' tolerance (unset: the method's default; \"auto\": a fraction of the last "
+               "step's truncation-error scale)",
                [](const KeyInput& in, RunConfig& c) {
+                 if (in.is_string()) {
+                   in.require(in.string() == "auto",
+                              "solver_tolerance must be a positive number (nm/ps) or \"auto\", not \"" + in.string() +
+                                  "\"");
+                   c.integrator.solver_tolerance_auto = true;
+                   return;
+                 }
                  c.integrator.solver_tolerance = in.number();
                  in.require(*c.integrator.solver_tolerance > 0, "solver_tolerance must be positive");
                },
                [](const RunConfig& c) {
+                 if (c.integrator.solver_tolerance_auto) return std::string("auto");
                  return c.integrator.solver_tolerance ? exact_text(*c.integrator.solver_tolerance)
                                                       : std::string("(default)");
                }});

@@ -24,6 +24,7 @@ class KeyInput {
   virtual double number() const = 0;  // finite; an integer is accepted
   virtual long integer() const = 0;   // a float with a whole value (1e5) is accepted
   virtual std::string string() const = 0;
+  virtual bool is_string() const = 0;  // for keys that take a number or a word
   std::string choice() const;  // one of the key's choices, else an error suggesting the nearest
   virtual std::vector<double> numbers() const = 0;
   virtual std::filesystem::path existing_file() const = 0;  // relative to the run file

@@ -20,6 +20,11 @@ StepPredictor::StepPredictor(int atoms, int history) : history_(history) {
 
 bool StepPredictor::corrects() const { return recorded_count_ > 0 && history_ > 0; }
 
+double StepPredictor::newest_offset_size(double h) const {
+  if (recorded_count_ == 0) return 0;
+  return std::max(max_abs(recorded_[0].v), max_abs(recorded_[0].q) / h);
+}
+
 // A polynomial through the last offsets predicts the next one a little better than the last alone:
 // they change by most of their size from step to step (at the pace of the fastest motion), yet the
 // extrapolation still lowers the first residual of a step enough to spare many steps an iteration.

@@ -26,6 +26,9 @@ class StepPredictor {
   const Coords& q_offset() const { return predicted_.q; }
   const Coords& v_offset() const { return predicted_.v; }
   const Coords& p_offset() const { return predicted_.p; }
+  // The newest recorded offset of (q, v), max(‖δv‖∞, ‖δq‖∞/h) in nm/ps like the solver's residual:
+  // the scale of the method's local truncation error; 0 before the first step's offset.
+  double newest_offset_size(double h) const;
 
   // Records the accepted point: q and v against this step's standard guess, and p̄ against
   // Π(M·V⁺), both tangent at q̄ = ∂⁺(w) (the normal part would be rotated into the tangent space at

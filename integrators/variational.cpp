@@ -52,6 +52,7 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
   check_projection_kind(config.projection);
   s.projection = config.projection;
   s.tolerance = config.solver_tolerance ? *config.solver_tolerance : default_solver_tolerance(s.alpha_minus);
+  s.tolerance_from_offset = config.solver_tolerance_auto;
   s.max_iterations = config.max_iterations;
   if (config.acceleration == "anderson")
     s.anderson_depth = 4;
@@ -115,7 +116,9 @@ VariationalIntegrator::VariationalIntegrator(const IntegratorConfig& config)
 VariationalIntegrator::~VariationalIntegrator() = default;
 
 std::vector<std::string> VariationalIntegrator::diagnostic_names() const {
-  return {"vi_iterations", "vi_residual", "vi_jump", "noether_px", "noether_py", "noether_pz"};
+  std::vector<std::string> names = {"vi_iterations", "vi_residual", "vi_jump", "noether_px", "noether_py", "noether_pz"};
+  if (settings_.tolerance_from_offset) names.push_back("vi_tolerance");
+  return names;
 }
 
 const Coords& VariationalIntegrator::qbar() const { return run_->qbar; }
@@ -295,7 +298,10 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.
   const double round_off = 8 * std::numeric_limits<double>::epsilon() * (max_abs(state.q) / h + max_abs(state.v));
   FixedPointControl& control = run.control;
-  control.begin(std::max(settings_.tolerance, round_off));
+  const double offset = run.predictor.newest_offset_size(h);
+  const double tolerance =
+      settings_.tolerance_from_offset && offset > 0 ? VariationalSettings::kToleranceOfOffset * offset : settings_.tolerance;
+  control.begin(std::max(tolerance, round_off));
   const bool mixed = settings_.mixed_precision_solve && problem.force_field.has_single_precision();
   double residual = std::numeric_limits<double>::infinity();
   FixedPointControl::Verdict verdict = FixedPointControl::Verdict::update;
@@ -365,6 +371,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   report.diagnostics = {static_cast<double>(report.iterations), residual,
                         verdict == FixedPointControl::Verdict::settled_at_jump ? 1.0 : 0.0,
                         momentum.x(), momentum.y(), momentum.z()};
+  if (settings_.tolerance_from_offset) report.diagnostics.push_back(control.tolerance());
   return report;
 }
 

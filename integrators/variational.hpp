@@ -23,6 +23,12 @@ struct VariationalSettings {
   // Stop when max(‖δv‖∞, ‖δq‖∞/h) ≤ tolerance (nm/ps). The last evaluated point is
   // accepted as it is, so no evaluation is spent only to confirm convergence.
   double tolerance = 1e-8;
+  // Instead, each step's tolerance from the last step's offset (StepPredictor::newest_offset_size:
+  // the distance between the solution and the method's own explicit step, the scale of the local
+  // truncation error): kToleranceOfOffset times it, so the solve's error stays a small fraction of
+  // the truncation error at every method, step and system; `tolerance` until an offset is known.
+  bool tolerance_from_offset = false;
+  static constexpr double kToleranceOfOffset = 1e-2;
   int max_iterations = 50;
   int anderson_depth = 0;  // 0: plain fixed-point iteration; m > 0: Anderson mixing over m differences
   // Predictor (StepPredictor): the standard layer's step Φ_h(w_k) for (q, v) and Π(M·V⁺) for p⁺,

@@ -92,6 +92,13 @@ TEST(Config, DefaultsFromTheContract) {
   EXPECT_EQ(c.output.dir, kConfig / out.dir);  // the default dir is relative to the config too
 }
 
+TEST(Config, SolverToleranceTakesANumberOrAuto) {
+  const RunConfig c = read_config(kConfig / "auto_tolerance.toml");
+  EXPECT_TRUE(c.integrator.solver_tolerance_auto);
+  EXPECT_FALSE(c.integrator.solver_tolerance.has_value());
+  EXPECT_FALSE(read_config(kConfig / "minimal.toml").integrator.solver_tolerance_auto);
+}
+
 TEST(Config, MalformedConfigsNameFileAndLine) {
   struct Case {
     const char* file;
@@ -111,6 +118,7 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
       {"bad_integrator_type.toml", "(choices: verlet, shake, rattle, vi, rk, minimize)"},
       {"bad_projection.toml", "(choices: euclidean, mass)"},
       {"bad_solver_precision.toml", "(choices: mixed, double)"},
+      {"bad_solver_tolerance_word.toml", "solver_tolerance must be a positive number (nm/ps) or \"auto\", not \"fast\""},
       {"wrong_type.toml", "steps must be an integer, found a string"},
       {"fractional_steps.toml", "steps must be an integer, found a floating-point number"},
       {"string_cutoff.toml", "cutoff must be a number, found a string"},
@@ -181,6 +189,7 @@ class GivenValue final : public KeyInput {
   }
   long integer() const override { return std::get<long>(value_); }
   std::string string() const override { return std::get<std::string>(value_); }
+  bool is_string() const override { return std::holds_alternative<std::string>(value_); }
   std::vector<double> numbers() const override { return std::get<std::vector<double>>(value_); }
   fs::path existing_file() const override { return string(); }
   fs::path path() const override { return string(); }
