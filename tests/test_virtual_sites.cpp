@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "derivative_checks.hpp"
+#include "engine/config_schema.hpp"
 #include "engine/constraints.hpp"
 #include "engine/gromacs/topology.hpp"
 #include "engine/integrator.hpp"
@@ -323,3 +324,13 @@ TEST(VirtualSites, TheRunLoopPlacesTheSites) {
     EXPECT_EQ(s.f.col(m.site).norm(), 0.0);
   }
 }
+
+// A checkpoint is refused for a system whose sites are built differently.
+TEST(VirtualSites, CheckpointIdentityCoversTheSites) {
+  System s = read_topology(kTop / "tip4p2005.top");
+  const RunConfig config;
+  const RunIdentity before = run_identity(s, config, 1);
+  s.virtual_sites[3].b += 1e-9;
+  EXPECT_NE(run_identity(s, config, 1), before);
+}
+
