@@ -87,6 +87,7 @@ void ForceField::hessian_vector(const Coords& q_atoms, const Coords& u_atoms, Co
       for (std::size_t k = 0; k < terms_.size(); ++k)
         terms_[k]->add_forces(q, site_forces_, {}, for_term(k, forces_only, nullptr));
       site_forces = &site_forces_;
+      ++evaluations_.force_evaluations;  // a real cost of this product
     }
     sites_->spread_hessian(q, u, site_forces, out);
   }
