@@ -223,8 +223,11 @@ int check_command(const fs::path& config_file) {
   std::printf("config      %s\n", c.file.string().c_str());
   std::printf("structure   %s\ntopology    %s\n", c.structure.string().c_str(), c.topology.string().c_str());
   std::printf("system      %s\n", s.title.c_str());
-  std::printf("atoms       %d in %zu molecules; atom types %zu; net charge %.6f e\n", s.n_atoms(), molecules.size(),
+  std::printf("atoms       %d in %zu molecules; atom types %zu; net charge %.6f e", s.n_atoms(), molecules.size(),
               s.type_names.size(), s.charge.sum());
+  if (!s.virtual_sites.empty())
+    std::printf("; %zu of the atoms are virtual sites (placed from their atoms)", s.virtual_sites.size());
+  std::printf("\n");
   std::printf("box         %.5f x %.5f x %.5f nm", s.box.length[0], s.box.length[1], s.box.length[2]);
   if (volume > 0) std::printf("  (density %.2f kg/m^3)", mass * 1.66053906660 / volume);
   std::printf("\ninteractions %zu bonds, %zu angles, %zu dihedrals, %zu impropers, %zu 1-4 pairs, %zu excluded pairs\n",

@@ -17,7 +17,7 @@ std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, cons
   const System& system = m->input.system;
   m->force_field = make_force_field(system, m->input.config.forcefield);
   m->constraints = Constraints(system.constraints, system.n_atoms(), system.box);
-  m->inverse_mass = system.mass.cwiseInverse();
+  m->inverse_mass = system.inverse_mass();
   return m;
 }
 

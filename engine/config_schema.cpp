@@ -494,6 +494,9 @@ RunIdentity run_identity(const System& s, const RunConfig& config, long summary_
   for (const RyckaertBellemansDihedral& x : s.rb_dihedrals) add_atoms(x), topology.add(x.c);
   for (const HarmonicImproper& x : s.harmonic_impropers) add_atoms(x), topology.add(x.xi0), topology.add(x.force_constant);
   for (const Pair14& x : s.pairs14) topology.add(x.i), topology.add(x.j), topology.add(x.c6), topology.add(x.c12), topology.add(x.qq);
+  for (const VirtualSite& x : s.virtual_sites)
+    topology.add(x.kind), topology.add(x.site), topology.add(x.i), topology.add(x.j), topology.add(x.k),
+        topology.add(x.a), topology.add(x.b), topology.add(x.c);
   RunIdentity identity = {
       {"atoms", std::to_string(s.n_atoms())},
       {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints; dihedrals, 1-4 pairs)",

@@ -37,7 +37,21 @@ TermEvaluation ForceField::for_term(std::size_t k, const Evaluation& how, ForceM
   return t;
 }
 
-void ForceField::evaluate(const Coords& q, Forces& out, bool energies, const Evaluation& how) {
+const Coords& ForceField::with_sites(const Coords& q) {
+  if (!sites_) return q;
+  placed_ = q;
+  sites_->place(placed_);
+  return placed_;
+}
+
+void ForceField::place_sites(Coords& q, Coords& v) const {
+  if (!sites_) return;
+  sites_->place(q);
+  if (v.cols() == q.cols()) sites_->tangent(q, v);
+}
+
+void ForceField::evaluate(const Coords& q_atoms, Forces& out, bool energies, const Evaluation& how) {
+  const Coords& q = with_sites(q_atoms);
   out.f.setZero(3, q.cols());
   out.terms.assign(names_.size(), energies ? 0.0 : std::numeric_limits<double>::quiet_NaN());
   ForceMasks* keep = how.keep_masks ? &out.masks : nullptr;
@@ -50,19 +64,44 @@ void ForceField::evaluate(const Coords& q, Forces& out, bool energies, const Eva
                           for_term(k, how, keep));
     offset += n;
   }
+  if (sites_) sites_->spread(q, out.f);
   total_energies(out);
   ++evaluations_.force_evaluations;
   if (how.single_precision && has_single_precision()) ++evaluations_.single_precision_force_evaluations;
 }
 
-void ForceField::hessian_vector(const Coords& q, const Coords& u, Coords& out, const Evaluation& how) {
+void ForceField::hessian_vector(const Coords& q_atoms, const Coords& u_atoms, Coords& out, const Evaluation& how) {
+  const Coords& q = with_sites(q_atoms);
+  if (sites_) {
+    tangent_ = u_atoms;
+    sites_->tangent(q, tangent_);
+  }
+  const Coords& u = sites_ ? tangent_ : u_atoms;
   out.setZero(3, q.cols());
   for (std::size_t k = 0; k < terms_.size(); ++k) terms_[k]->add_hessian_vector(q, u, out, for_term(k, how, nullptr));
+  if (sites_) {
+    const Coords* site_forces = nullptr;
+    if (!sites_->linear()) {  // the curvature of the constructions needs the forces on the sites
+      site_forces_.setZero(3, q.cols());
+      const Evaluation forces_only{how.single_precision, how.step};
+      for (std::size_t k = 0; k < terms_.size(); ++k)
+        terms_[k]->add_forces(q, site_forces_, {}, for_term(k, forces_only, nullptr));
+      site_forces = &site_forces_;
+      ++evaluations_.force_evaluations;  // a real cost of this product
+    }
+    sites_->spread_hessian(q, u, site_forces, out);
+  }
   ++evaluations_.hessian_evaluations;
   if (how.single_precision && has_single_precision()) ++evaluations_.single_precision_hessian_evaluations;
 }
 
-void ForceField::single_point(const Coords& q, Forces& out) const {
+void ForceField::single_point(const Coords& q_atoms, Forces& out) const {
+  Coords placed;
+  if (sites_) {
+    placed = q_atoms;
+    sites_->place(placed);
+  }
+  const Coords& q = sites_ ? placed : q_atoms;
   out.f.setZero(3, q.cols());
   out.terms.assign(names_.size(), 0.0);
   std::size_t offset = 0;
@@ -70,6 +109,7 @@ void ForceField::single_point(const Coords& q, Forces& out) const {
     terms_[k]->add_single_point(q, out.f, std::span<double>(out.terms).subspan(offset, name_counts_[k]));
     offset += name_counts_[k];
   }
+  if (sites_) sites_->spread(q, out.f);
   total_energies(out);
 }
 
@@ -80,7 +120,8 @@ void ForceField::total_energies(Forces& out) const {
     if (!is_part_[k]) out.potential += out.terms[k];
 }
 
-void ForceField::start_step(StepPairSet& pairs, const Coords& q) {
+void ForceField::start_step(StepPairSet& pairs, const Coords& q_atoms) {
+  const Coords& q = with_sites(q_atoms);
   pairs.terms_.resize(terms_.size());
   for (std::size_t k = 0; k < terms_.size(); ++k) terms_[k]->start_step(q, pairs.terms_[k]);
 }

@@ -148,6 +148,27 @@ class ForceTerm {
   virtual void restore(const Carried& /*in*/) {}
 };
 
+// Atoms whose positions are functions of the others' (virtual sites, System::virtual_sites). The
+// field evaluates its terms with the sites placed, then moves the sites' forces onto the atoms they
+// are built from: to integrators, V is a function of the real atoms alone, with zero force and
+// Hessian rows on the sites. All functions take q with the sites placed (place).
+class SiteConstruction {
+ public:
+  virtual ~SiteConstruction() = default;
+  // q's site columns from the other columns.
+  virtual void place(Coords& q) const = 0;
+  // u's site columns ← J u, the sites' motion when the atoms move along u.
+  virtual void tangent(const Coords& q, Coords& u) const = 0;
+  // Adds the forces on the sites to the atoms they are built from (f ← Jᵀ f) and zeroes them.
+  virtual void spread(const Coords& q, Coords& f) const = 0;
+  // hv ← Jᵀ hv + Σ_sites (∂²x_site/∂x² u) · (−F_site), for the Hessian of V(x(q)) from the terms'
+  // Hessian–vector product hv at the sites' tangent u (see tangent). F_site: the sites' forces as the
+  // terms give them (site_forces, unspread); only where the construction is not linear (linear()).
+  virtual void spread_hessian(const Coords& q, const Coords& u, const Coords* site_forces, Coords& hv) const = 0;
+  // Whether every construction is linear in the atoms (no second-derivative term).
+  virtual bool linear() const = 0;
+};
+
 class ForceField {
  public:
   void add(std::unique_ptr<ForceTerm> term);
@@ -180,7 +201,15 @@ class ForceField {
 
   const std::vector<std::unique_ptr<ForceTerm>>& terms() const { return terms_; }
 
+  // The system's virtual sites, if it has any: every evaluation places them first.
+  void set_sites(std::unique_ptr<SiteConstruction> sites) { sites_ = std::move(sites); }
+  // Writes the sites' positions into q and their velocities J·v into v (when v has q's shape), as
+  // GROMACS keeps them for output; nothing without sites.
+  void place_sites(Coords& q, Coords& v) const;
+
  private:
+  // q with the sites placed (q itself without sites).
+  const Coords& with_sites(const Coords& q);
   void evaluate(const Coords& q, Forces& out, bool energies, const Evaluation& how);
   // Adds each part column to its total, then sums the potential over the other columns.
   void total_energies(Forces& out) const;
@@ -194,6 +223,8 @@ class ForceField {
   };
   std::vector<EnergyPart> parts_;
   std::vector<bool> is_part_;  // per column
+  std::unique_ptr<SiteConstruction> sites_;
+  Coords placed_, tangent_, site_forces_;  // scratch for the sites
   WorkCounters evaluations_;  // the evaluation counts; the terms add theirs in work()
 };
 

@@ -22,10 +22,14 @@ Coords maxwell_boltzmann_velocities(const System& system, double temperature, st
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   Coords v(3, n);
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) * std::sqrt(kBoltzmann * temperature / system.mass[i]);
+  for (int i = 0; i < n; ++i) {
+    // A virtual site has no velocity of its own (the engine gives it its atoms').
+    const double sigma = system.mass[i] > 0 ? std::sqrt(kBoltzmann * temperature / system.mass[i]) : 0.0;
+    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) * sigma;
+  }
   const Vec3 momentum = v * system.mass;
   v.colwise() -= momentum / system.mass.sum();
+  for (const VirtualSite& s : system.virtual_sites) v.col(s.site).setZero();
   scale_to_temperature(system, temperature, v);
   return v;
 }
@@ -92,9 +96,17 @@ std::vector<std::string> check_box(const RunConfig& c, const Box& box, int box_l
 
 // Overlapping atoms make the first force evaluation meaningless (or infinite).
 void check_overlaps(const System& s, const Coords& x, const Box& box, const std::filesystem::path& gro) {
-  const auto overlap = find_overlap(x, box, 0.05);
+  // Virtual sites sit close to their atoms by construction: only the other atoms count.
+  std::vector<bool> is_site(x.cols(), false);
+  for (const VirtualSite& v : s.virtual_sites) is_site[v.site] = true;
+  std::vector<int> atoms;  // indices into x of the atoms looked at
+  for (int a = 0; a < x.cols(); ++a)
+    if (!is_site[a]) atoms.push_back(a);
+  const auto overlap = find_overlap(x(Eigen::all, atoms), box, 0.05);
   if (!overlap) return;
-  const auto [i, j, distance, pairs] = *overlap;
+  const int i = atoms[overlap->i], j = atoms[overlap->j];
+  const double distance = overlap->distance;
+  const int pairs = overlap->pairs;
   throw InputError(gro.string(), j + 3,
                    "atoms " + describe_atom(s, i) + " at line " + std::to_string(i + 3) + " and " + describe_atom(s, j) +
                        " are " + format("%.4f", distance) +
@@ -126,7 +138,8 @@ std::optional<std::string> time_step_warning(const System& s, const RunConfig& c
   double shortest = INFINITY;
   int too_fast = 0;
   for (const Bond& b : s.bonds) {
-    if (b.k <= 0 || constrained.count(std::minmax(b.i, b.j))) continue;
+    // A bond to a virtual site does not oscillate on its own.
+    if (b.k <= 0 || constrained.count(std::minmax(b.i, b.j)) || s.mass[b.i] <= 0 || s.mass[b.j] <= 0) continue;
     const double reduced_mass = s.mass[b.i] * s.mass[b.j] / (s.mass[b.i] + s.mass[b.j]);
     const double period = 2 * std::numbers::pi * std::sqrt(reduced_mass / b.k);  // ps
     if (period >= 10 * c.integrator.dt) continue;

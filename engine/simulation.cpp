@@ -131,6 +131,7 @@ RunTotals Simulation::run(State& state, long steps) {
   // A later run continues the same state: constrained and set up already.
   if (!initialized_) {
     constrain_start(problem_, state);
+    problem_.force_field.place_sites(state.q, state.v);
     integrator_.init(problem_, state);
     initialized_ = true;
     start_step_ = state.step;
@@ -217,6 +218,8 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
       last_good.step = state.step, last_good.time = state.time;
       problem_.energies_due = energies_due_at(state.step + 1);
       report = integrator_.step(problem_, state);
+      // Integrators move the atoms; the sites follow here, once, for output and checkpoints.
+      problem_.force_field.place_sites(state.q, state.v);
       ++state.step;
       state.time = start_time_ + (state.step - info.first_step) * dt_;
       base.solver_iterations += report.iterations;

@@ -52,6 +52,21 @@ struct Constraint {  // |q_i − q_j| = length
   double length;  // nm
 };
 
+// An atom whose position is a function of two or three others (GROMACS's [ virtual_sites2 ] and
+// [ virtual_sites3 ]): massless, no degrees of freedom of its own; its forces act on the atoms it is
+// built from. With r_ij = x_j − x_i, r_ik = x_k − x_i, r_jk = x_k − x_j (minimum images):
+//   two:       x_i + a r_ij                      two_fd:    x_i + a r_ij/|r_ij|
+//   three:     x_i + a r_ij + b r_ik             three_fd:  x_i + b t/|t|, t = r_ij + a r_jk
+//   three_fad: x_i + a r_ij/|r_ij| + b p/|p|, p = r_jk − (r_ij·r_jk/|r_ij|²) r_ij
+//   three_out: x_i + a r_ij + b r_ik + c r_ij × r_ik
+struct VirtualSite {
+  // In GROMACS's construction order: every [ virtual_sites2 ] kind before every [ virtual_sites3 ] kind.
+  enum class Kind { two, two_fd, three, three_fd, three_fad, three_out };
+  Kind kind;
+  int site, i, j, k;  // k = -1 for the two-atom kinds
+  double a, b, c;     // nm or dimensionless as the formula needs; three_fad: a = d cos θ, b = d sin θ (nm)
+};
+
 struct System {
   std::string title;
   // Per atom, in .gro order.
@@ -75,15 +90,21 @@ struct System {
   std::vector<Pair14> pairs14;
   std::vector<Constraint> constraints;
   int bonds_constrained = 0;  // of the constraints: bonds made rigid by [system] constraints
+  // In construction order: a site built from another site comes after it.
+  std::vector<VirtualSite> virtual_sites;
   // Per atom: sorted indices of the atoms it has no nonbonded interaction with (both directions).
   std::vector<std::vector<int>> exclusions;
 
   Box box;
 
   int n_atoms() const { return static_cast<int>(mass.size()); }
-  // Degrees of freedom for the temperature: 3N − constraints − 3 (removed centre-of-mass motion).
+  // 1/m per atom; 0 for a virtual site (no mass, no acceleration of its own).
+  Eigen::VectorXd inverse_mass() const { return (mass.array() > 0).select(mass.cwiseInverse(), 0.0); }
+  // Degrees of freedom for the temperature: 3N − constraints − 3 (removed centre-of-mass motion),
+  // N counting the atoms that are not virtual sites.
   int degrees_of_freedom() const {
-    return 3 * n_atoms() - static_cast<int>(constraints.size()) - (box.periodic() ? 3 : 0);
+    return 3 * (n_atoms() - static_cast<int>(virtual_sites.size())) - static_cast<int>(constraints.size()) -
+           (box.periodic() ? 3 : 0);
   }
 };
 

@@ -7,6 +7,7 @@
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
 #include "forcefields/pairs_14.hpp"
+#include "forcefields/virtual_sites.hpp"
 
 namespace vimd {
 
@@ -26,6 +27,8 @@ std::unique_ptr<ForceField> make_force_field(const System& system, const ForceFi
         system, EwaldMeshParameters{pme_grid_size(config, system.box), config.pme_order, real_space.beta, real_space.prefactor},
         config.precision == "mixed"));
   }
+  if (!system.virtual_sites.empty())
+    field->set_sites(std::make_unique<VirtualSiteConstruction>(system.virtual_sites, system.box));
   return field;
 }
 

@@ -271,7 +271,8 @@ void VariationalIntegrator::update(Run& run, long step, double relaxation, bool 
   run.mixer->mix([&](int i, const Eigen::Matrix<double, kAndersonEntriesPerAtom, 1>& x) {
     run.q_trial.col(i) = h * x.segment<3>(0);
     run.v_trial.col(i) = x.segment<3>(3);
-    run.p_plus.col(i) = x.segment<3>(6) / inverse_mass[i];
+    // A virtual site (inverse mass 0) has no momentum.
+    run.p_plus.col(i) = inverse_mass[i] > 0 ? Vec3(x.segment<3>(6) / inverse_mass[i]) : Vec3::Zero();
   });
   equations.return_to_tangent_bundle(run.q_trial, run.v_trial, run.qbar, step);
   parallel_assign(run.q, run.q_trial);

@@ -1,17 +1,19 @@
 #!/usr/bin/python3
 """Single-point energies of vimd against `gmx_d mdrun -rerun` on the same structure and topology.
 
-For each water box and each non-bonded setting (reaction field; PME at pme-order 4 and 8), prints
+For each water box (SPC/E, TIP3P, and TIP4P/2005 with its virtual M site: GROMACS's .trr has zero force on
+the site, spread onto O and H as vimd spreads it) and each non-bonded setting (reaction field; PME at
+pme-order 4 and 8), prints
 LJ, Coulomb (PME: real space + mesh + corrections, GROMACS's Coulomb (SR) + Coul. recip.), the mesh
 part alone, the potential, and the RMS force difference over the RMS force. For each molecule box of validation/molecules/ (OPLS-AA
 hexanes; a molecule with every dihedral function and parameter lookup; dihedrals whose torsion is
-undefined; an AMBER99SB-ILDN decapeptide) it compares every energy term and the forces (RMS of the
+undefined; an AMBER99SB-ILDN decapeptide; a molecule with a virtual site of every kind) it compares every energy term and the forces (RMS of the
 force difference over the RMS force), and with constraints (GROMACS's option, "hexane8:h-bonds")
 the number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
 GROMACS runs with a pair list 0.1 nm longer than the cut-off where the box allows (with rlist = rc
 its search can miss a pair at the cut-off, and a short buffer still changes forces by ~2e-7) and, for PME, with analytical Ewald kernels (GMX_NBNXN_EWALD_ANALYTICAL: its
 default tables carry a force error of ~6e-7 of the RMS force).
-Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900 tip3p_solvated]
+Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900 tip3p_solvated tip4p2005]
                                                     [--molecules hexane8 hexane8:h-bonds ...]
 """
 import argparse
@@ -37,13 +39,13 @@ PME = dict(ewald_rtol=1e-5, fourier_spacing=0.12)
 SETTINGS = [
     ("RF eps_rf=0, LJ potential-shift", 0.9,
      dict(vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="reaction-field", epsilon_rf=0),
-     ["water216", "water900"]),
+     ["water216", "water900", "tip4p2005"]),
     ("RF eps_rf=78, LJ potential-switch 0.7-0.9", 0.9,
      dict(vdw_modifier="potential-switch", vdw_switch=0.7, coulomb="reaction-field", epsilon_rf=78),
      ["water216", "water900"]),
     ("PME order 4 (rtol 1e-5, spacing 0.12), rc 1.0", 1.0,
      dict(vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="pme", pme_order=4, **PME),
-     ["water900", "tip3p_solvated"]),
+     ["water900", "tip3p_solvated", "tip4p2005"]),
     ("PME order 8 (rtol 1e-5, spacing 0.12), rc 1.0", 1.0,
      dict(vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="pme", pme_order=8, **PME),
      ["water900", "tip3p_solvated"]),
@@ -61,15 +63,31 @@ def pair_list_radius(structure, cutoff):
     return min(cutoff + 0.1, 0.5 * box - 1e-3)
 
 
+def sites_placed(src, work):
+    """src/conf.gro with its virtual sites placed from their atoms (as vimd places them), as a .g96
+    file (9 decimals). GROMACS 2022 places sites in a rerun only with -rerunvsite and without domain
+    decomposition, which it uses for PME even on one rank: a reaction-field rerun places them; its
+    .trr has the atoms put into the box one by one, so trjconv makes the molecules whole again."""
+    write_mdp(work / "place.mdp", integrator="md", nsteps=0, nstxout=1, **nonbonded_mdp(0.9, "potential-shift", 0.0, 0))
+    run(["gmx_d", "grompp", "-f", "place.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "place.tpr",
+         "-maxwarn", "2"], work)
+    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "place.tpr", "-nt", "1", "-rerunvsite", "-e", "place.edr",
+         "-g", "place.log", "-o", "placed.trr"], work)
+    run(["gmx_d", "trjconv", "-f", "placed.trr", "-s", "place.tpr", "-pbc", "mol", "-o", "placed.g96"], work, stdin="0\n")
+    return work / "placed.g96"
+
+
 def compare(system, label, cutoff, ff, work):
     src = ROOT / "inputs" / system
     work.mkdir(parents=True, exist_ok=True)
+    has_sites = "virtual_sites" in (src / "topol.top").read_text()
+    frame = sites_placed(src, work) if has_sites else src / "conf.gro"
     pme = {k: ff[k] for k in ("ewald_rtol", "pme_order", "fourier_spacing") if k in ff}
     write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1,
               **nonbonded_mdp(cutoff, ff["vdw_modifier"], ff["vdw_switch"], ff.get("epsilon_rf", 0),
                               coulomb=ff["coulomb"], rlist=pair_list_radius(src / "conf.gro", cutoff), pme=pme))
     run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
-    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-notunepme",
+    run(["gmx_d", "mdrun", "-rerun", frame, "-s", "rerun.tpr", "-nt", "1", "-notunepme",
          "-e", "rerun.edr", "-g", "rerun.log", "-o", "rerun.trr"], work)
     terms = ["LJ-(SR)", "Coulomb-(SR)", "Potential"] + (["Coul.-recip."] if ff["coulomb"] == "pme" else [])
     g = {k: v[0] for k, v in gmx_energy("gmx_d", "rerun.edr", terms, work).items()}
@@ -132,8 +150,9 @@ def compare_molecules(system, constraints, work):
     write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1, constraints=constraints,
               **nonbonded_mdp(CUTOFF, "potential-shift", 0.0, 0))
     run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
-    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-e", "rerun.edr", "-g", "rerun.log",
-         "-o", "rerun.trr"], work)
+    # -rerunvsite: virtual sites placed from their atoms, as vimd places them (no domain decomposition here)
+    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-rerunvsite", "-e", "rerun.edr",
+         "-g", "rerun.log", "-o", "rerun.trr"], work)
     names = sorted({g for _, gs in MOLECULE_TERMS for g in gs})
     g = gmx_energy("gmx_d", "rerun.edr", [n.replace(" ", "-") for n in names], work)
     vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top",
@@ -166,10 +185,10 @@ def compare_molecules(system, constraints, work):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--systems", nargs="*", default=["water216", "water900", "tip3p_solvated"])
+    ap.add_argument("--systems", nargs="*", default=["water216", "water900", "tip3p_solvated", "tip4p2005"])
     ap.add_argument("--molecules", nargs="*",
                     default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds", "collinear",
-                             "peptide_amber", "peptide_amber:h-bonds"],
+                             "peptide_amber", "peptide_amber:h-bonds", "vsites"],
                     help="molecule boxes of validation/molecules, each optionally with :constraints")
     args = ap.parse_args()
     rows = []

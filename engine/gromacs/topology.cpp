@@ -60,6 +60,15 @@ struct MoleculeAtom {
   int residue_number;
   std::string residue_name, name;
   double charge, mass;
+  char ptype;
+  Where where;
+};
+
+// A [ virtual_sites2 ] or [ virtual_sites3 ] line.
+struct SiteLine {
+  VirtualSite site;
+  Where where;
+  std::string section;
 };
 
 struct Unsupported {
@@ -83,6 +92,7 @@ struct MoleculeType {
   std::vector<Where> constraint_lines;  // per constraint: the [ constraints ] or [ settles ] line
   std::vector<std::pair<int, int>> chemical_bonds;  // the graph nrexcl counts along
   std::vector<std::pair<int, int>> explicit_exclusions;
+  std::vector<SiteLine> sites;  // in file order
   std::optional<Unsupported> unsupported;  // the first entry vimd cannot compute
 
   void mark_unsupported(const Where& where, const std::string& what) {
@@ -156,6 +166,8 @@ enum class Section {
   Constraints,
   Settles,
   Exclusions,
+  VirtualSites2,
+  VirtualSites3,
   UnsupportedInteraction,
   System,
   Molecules,
@@ -202,12 +214,12 @@ const std::map<std::string, SectionInfo>& section_table() {
       {"water_polarization", {Section::UnsupportedInteraction, "water polarization ([ water_polarization ])"}},
       {"thole_polarization", {Section::UnsupportedInteraction, "Thole polarization ([ thole_polarization ])"}},
       {"virtual_sites1", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites1 ])"}},
-      {"virtual_sites2", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites2 ])"}},
-      {"virtual_sites3", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites3 ])"}},
+      {"virtual_sites2", {Section::VirtualSites2}},
+      {"virtual_sites3", {Section::VirtualSites3}},
       {"virtual_sites4", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sites4 ])"}},
       {"virtual_sitesn", {Section::UnsupportedInteraction, "virtual sites ([ virtual_sitesn ])"}},
-      {"dummies2", {Section::UnsupportedInteraction, "virtual sites ([ dummies2 ])"}},
-      {"dummies3", {Section::UnsupportedInteraction, "virtual sites ([ dummies3 ])"}},
+      {"dummies2", {Section::VirtualSites2}},  // the old names, still read by grompp
+      {"dummies3", {Section::VirtualSites3}},
       {"dummies4", {Section::UnsupportedInteraction, "virtual sites ([ dummies4 ])"}},
       {"dummiesn", {Section::UnsupportedInteraction, "virtual sites ([ dummiesn ])"}},
       {"system", {Section::System}},
@@ -331,6 +343,8 @@ class TopologyParser {
       case Section::Constraints: constraint(f); break;
       case Section::Settles: settle(f); break;
       case Section::Exclusions: exclusion(f); break;
+      case Section::VirtualSites2: virtual_site(f, 2); break;
+      case Section::VirtualSites3: virtual_site(f, 3); break;
       case Section::UnsupportedInteraction:
         molecules_.back().mark_unsupported(f.where(), std::string(section_->unsupported_what) + " are not supported");
         break;
@@ -566,7 +580,8 @@ class TopologyParser {
               ", found " + f[0]);
     const AtomType& type = atomtype_named(f, 1);
     MoleculeAtom a{atomtype_index_.at(type.name), residue_number(f, 2), f[3], f[4],
-                   f.size() > 6 ? f.number(6, "charge") : type.charge, f.size() > 7 ? f.number(7, "mass") : type.mass};
+                   f.size() > 6 ? f.number(6, "charge") : type.charge, f.size() > 7 ? f.number(7, "mass") : type.mass,
+                   type.ptype, f.where()};
     if (f.size() > 8) {
       const AtomType& type_b = atomtype_named(f, 8);
       const double charge_b = f.size() > 9 ? f.number(9, "chargeB") : type_b.charge;
@@ -574,13 +589,10 @@ class TopologyParser {
       if (type_b.name != type.name || charge_b != a.charge || mass_b != a.mass)
         molecule.mark_unsupported(f.where(), "free-energy perturbation (B-state type, charge or mass) is not supported");
     }
-    if (type.ptype != 'A' && type.ptype != 'N')
+    if (type.ptype == 'S' || type.ptype == 'B')
       molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has particle type " + std::string(1, type.ptype) +
-                                               " (virtual site or shell), which is not supported");
-    else if (a.mass <= 0)
-      molecule.mark_unsupported(f.where(), "atom '" + a.name + "' has mass " + format_number(a.mass) +
-                                               " amu: every atom needs a positive mass (the equations of motion and " +
-                                               "the constraint solver divide by it; virtual sites are not supported)");
+                                               " (a shell), which is not supported");
+    // Masses are checked with the molecule's virtual sites (check_sites): a site has none.
     molecule.atoms.push_back(std::move(a));
   }
 
@@ -844,6 +856,117 @@ class TopologyParser {
     for (std::size_t k = 1; k < f.size(); ++k) molecule.explicit_exclusions.emplace_back(i, f.atom(k, molecule));
   }
 
+  // "site ai aj [ak] func parameters", as grompp reads [ virtual_sites2 ] (functions 1 "2", 2 "2fd")
+  // and [ virtual_sites3 ] (1 "3", 2 "3fd", 3 "3fad" with theta in degrees, 4 "3out").
+  void virtual_site(const Fields& f, int from) {
+    const std::size_t func_field = static_cast<std::size_t>(from) + 1;
+    f.require(func_field + 1, from == 2 ? "site ai aj func parameters" : "site ai aj ak func parameters");
+    MoleculeType& molecule = molecules_.back();
+    VirtualSite v{};
+    v.site = f.atom(0, molecule);
+    v.i = f.atom(1, molecule);
+    v.j = f.atom(2, molecule);
+    v.k = from == 3 ? f.atom(3, molecule) : -1;
+    if (v.site == v.i || v.site == v.j || v.site == v.k || v.i == v.j || v.i == v.k || (v.k >= 0 && v.j == v.k))
+      f.error("a virtual site and the atoms it is built from must all be different atoms");
+    struct Function {
+      VirtualSite::Kind kind;
+      std::size_t n;
+      const char* layout;
+    };
+    using enum VirtualSite::Kind;
+    static const std::map<std::pair<int, long>, Function> functions = {
+        {{2, 1}, {two, 1, "a"}},         {{2, 2}, {two_fd, 1, "d (nm)"}},
+        {{3, 1}, {three, 2, "a b"}},     {{3, 2}, {three_fd, 2, "a d (nm)"}},
+        {{3, 3}, {three_fad, 2, "theta (deg) d (nm)"}}, {{3, 4}, {three_out, 3, "a b c (1/nm)"}},
+    };
+    const auto it = functions.find({from, f.integer(func_field, "func")});
+    if (it == functions.end())
+      f.error("[ " + section_name_ + " ] function type " + f[func_field] + " does not exist (" +
+              (from == 2 ? "1: 2, 2: 2fd" : "1: 3, 2: 3fd, 3: 3fad, 4: 3out") + ")");
+    const Function& function = it->second;
+    const auto params = f.numbers_from(func_field + 1, "parameter");
+    if (params.empty())
+      f.error("virtual site without parameters: vimd needs them on the line (" + std::string(function.layout) +
+              "); grompp's derivation from bond and angle geometry is not supported");
+    if (params.size() != function.n)
+      f.error("expected " + std::to_string(function.n) + " parameters (" + function.layout + "), found " +
+              std::to_string(params.size()));
+    v.kind = function.kind;
+    if (v.kind == three_fad) {
+      const double theta = params[0] * std::numbers::pi / 180;
+      v.a = params[1] * std::cos(theta);
+      v.b = params[1] * std::sin(theta);
+    } else {
+      v.a = params[0];
+      v.b = params.size() > 1 ? params[1] : 0;
+      v.c = params.size() > 2 ? params[2] : 0;
+    }
+    molecule.sites.push_back({v, f.where(), section_name_});
+  }
+
+  // grompp's construction order: by function (2, 2fd, 3, 3fd, 3fad, 3out), each in file order.
+  static std::vector<SiteLine> construction_order(const MoleculeType& m) {
+    std::vector<SiteLine> order = m.sites;
+    std::stable_sort(order.begin(), order.end(),
+                     [](const SiteLine& x, const SiteLine& y) { return x.site.kind < y.site.kind; });
+    return order;
+  }
+
+  // grompp's rules: a site is constructed once, from atoms constructed before it, has mass 0 and
+  // no constraint; every other atom is a particle with a positive mass.
+  static void check_sites(const MoleculeType& m) {
+    const auto name = [&](int a) { return std::to_string(a + 1) + " (" + m.atoms[a].name + ")"; };
+    const auto order = construction_order(m);
+    std::vector<int> built_at(m.atoms.size(), -1);  // position in `order`
+    for (std::size_t s = 0; s < order.size(); ++s) {
+      const int site = order[s].site.site;
+      if (built_at[site] >= 0)
+        fail(order[s].where, "atom " + name(site) + " of molecule type '" + m.name +
+                                 "' is constructed twice as a virtual site (also at " +
+                                 order[built_at[site]].where.str() + ")");
+      built_at[site] = static_cast<int>(s);
+    }
+    for (std::size_t s = 0; s < order.size(); ++s) {
+      const SiteLine& line = order[s];
+      const MoleculeAtom& atom = m.atoms[line.site.site];
+      if (atom.mass != 0)
+        fail(line.where, "virtual site " + name(line.site.site) + " of molecule type '" + m.name + "' has mass " +
+                             format_number(atom.mass) + " amu (its [ atoms ] line is " + atom.where.str() +
+                             "): a virtual site must have mass 0, its motion follows from the atoms it is built from");
+      for (int from : {line.site.i, line.site.j, line.site.k}) {
+        if (from < 0) continue;
+        if (built_at[from] > static_cast<int>(s))
+          fail(line.where, "virtual site " + name(line.site.site) + " is built from atom " + name(from) +
+                               ", a virtual site constructed after it (at " + order[built_at[from]].where.str() +
+                               "): grompp constructs by function (2, 2fd, 3, 3fd, 3fad, 3out), each in file order");
+        if (built_at[from] < 0 && (m.atoms[from].ptype == 'V' || m.atoms[from].ptype == 'D'))
+          fail(line.where, "virtual site " + name(line.site.site) + " is built from atom " + name(from) +
+                               ", which has particle type " + std::string(1, m.atoms[from].ptype) +
+                               " (a virtual site) but is never constructed");
+      }
+    }
+    for (std::size_t c = 0; c < m.constraints.size(); ++c)
+      for (int a : {m.constraints[c].i, m.constraints[c].j})
+        if (built_at[a] >= 0)
+          fail(m.constraint_lines[c], "a constraint between atoms " + name(m.constraints[c].i) + " and " +
+                                          name(m.constraints[c].j) + " of molecule type '" + m.name +
+                                          "' involves atom " + name(a) + ", a virtual site (constructed at " +
+                                          order[built_at[a]].where.str() +
+                                          "): a virtual site cannot be constrained; constrain the atoms it is built from");
+    for (std::size_t a = 0; a < m.atoms.size(); ++a) {
+      const MoleculeAtom& atom = m.atoms[a];
+      if (built_at[a] >= 0) continue;
+      if (atom.ptype == 'V' || atom.ptype == 'D')
+        fail(atom.where, "atom '" + atom.name + "' has particle type " + std::string(1, atom.ptype) +
+                             " (a virtual site), but no [ virtual_sites2 ] or [ virtual_sites3 ] line constructs it");
+      if (atom.mass <= 0)
+        fail(atom.where, "atom '" + atom.name + "' has mass " + format_number(atom.mass) +
+                             " amu: every atom needs a positive mass (the equations of motion and the constraint "
+                             "solver divide by it); only a virtual site has none");
+    }
+  }
+
   void molecule_count(const Fields& f) {
     f.require(2, "name count");
     const auto it = std::find_if(molecules_.begin(), molecules_.end(), [&](const auto& m) { return m.name == f[0]; });
@@ -854,6 +977,7 @@ class TopologyParser {
       fail(it->unsupported->where, "molecule type '" + it->name + "' (used in [ molecules ] at " + f.where().str() +
                                        "): " + it->unsupported->what);
     if (it->atoms.empty()) f.error("molecule type '" + it->name + "' has no atoms");
+    check_sites(*it);
     check_constraint_set(*it);
     // A typo such as an extra digit must not become an attempt to allocate billions of atoms.
     constexpr long kMaxAtoms = 10'000'000;
@@ -1025,6 +1149,7 @@ class TopologyParser {
     for (const auto& mc : molecule_counts_) {
       const MoleculeType& m = molecules_[mc.type];
       const auto excluded = molecule_exclusions(m);
+      const auto sites = construction_order(m);
       const bool renumber = residue_count(m) <= 1;
       for (int copy = 0; copy < mc.count; ++copy, ++instance) {
         for (std::size_t a = 0; a < m.atoms.size(); ++a) {
@@ -1072,6 +1197,14 @@ class TopologyParser {
           system.constraints.push_back(c);
         }
         system.bonds_constrained += m.bonds_constrained;
+        for (SiteLine line : sites) {
+          VirtualSite& v = line.site;
+          v.site += offset;
+          v.i += offset;
+          v.j += offset;
+          if (v.k >= 0) v.k += offset;
+          system.virtual_sites.push_back(v);
+        }
         offset += static_cast<int>(m.atoms.size());
       }
     }

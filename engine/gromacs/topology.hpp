@@ -2,7 +2,8 @@
 // GROMACS .top reader with GROMACS's preprocessor (#include, #define, #undef, #ifdef, #ifndef,
 // #else, #endif, ';' comments, '\' continuation). Produces the System of all molecules listed in
 // [ molecules ]; the box stays zero (it comes from the structure file). Anything in a used molecule
-// that vimd cannot compute (virtual sites, CMAP, restraints, …) is an InputError at its file:line.
+// that vimd cannot compute (shells, CMAP, restraints, …) is an InputError at its file:line. Virtual
+// sites ([ virtual_sites2 ], [ virtual_sites3 ]) become System::virtual_sites, checked as grompp does.
 #include <filesystem>
 #include <string>
 #include <vector>
