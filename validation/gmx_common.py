@@ -86,14 +86,14 @@ def gmx_energy(gmx, edr, terms, cwd):
     return {name: cols[k + 1] for k, name in enumerate(legends)} | {"time": cols[0]}
 
 
-def vimd_config(path, structure, topology, forcefield, integrator=None, output=None):
-    """Write a vimd TOML run file with absolute input paths."""
+def vimd_config(path, structure, topology, forcefield, integrator=None, output=None, system=None):
+    """Write a vimd TOML run file with absolute input paths; `system` adds [system] keys."""
     def table(name, d):
         lines = [f"[{name}]"]
         for k, v in d.items():
             lines.append(f"{k} = {json.dumps(v)}")
         return "\n".join(lines) + "\n"
-    text = table("system", {"structure": str(structure), "topology": str(topology)})
+    text = table("system", {"structure": str(structure), "topology": str(topology), **(system or {})})
     text += table("forcefield", forcefield)
     if integrator:
         text += table("integrator", integrator)

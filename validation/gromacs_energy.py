@@ -7,14 +7,16 @@ pme-order 4 and 8), prints
 LJ, Coulomb (PME: real space + mesh + corrections, GROMACS's Coulomb (SR) + Coul. recip.), the mesh
 part alone, the potential, and the RMS force difference over the RMS force. For each molecule box of validation/molecules/ (OPLS-AA
 hexanes; a molecule with every dihedral function and parameter lookup; dihedrals whose torsion is
-undefined; an AMBER99SB-ILDN decapeptide; a molecule with a virtual site of every kind) it compares every energy term and the forces (RMS of the
-force difference over the RMS force), and with constraints (GROMACS's option, "hexane8:h-bonds")
-the number of bonds made constraints. Exits non-zero if any differs by more than 1e-6.
+undefined; an AMBER99SB-ILDN decapeptide; a molecule with a virtual site of every kind) and for the
+OPLS-AA n-decane melt of inputs/alkane it compares every energy term and the forces (RMS of the
+force difference over the RMS force), with reaction field or, for a case ending in "@pme", PME; with
+constraints (GROMACS's option, "hexane8:h-bonds") the number of bonds made constraints. Exits
+non-zero if any differs by more than 1e-6.
 GROMACS runs with a pair list 0.1 nm longer than the cut-off where the box allows (with rlist = rc
 its search can miss a pair at the cut-off, and a short buffer still changes forces by ~2e-7) and, for PME, with analytical Ewald kernels (GMX_NBNXN_EWALD_ANALYTICAL: its
 default tables carry a force error of ~6e-7 of the RMS force).
 Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900 tip3p_solvated tip4p2005]
-                                                    [--molecules hexane8 hexane8:h-bonds ...]
+                                                    [--molecules hexane8 hexane8:h-bonds alkane@pme ...]
 """
 import argparse
 import json
@@ -118,7 +120,7 @@ MOLECULE_TERMS = [
     ("lj14", ["LJ-14"]),
     ("coulomb14", ["Coulomb-14"]),
     ("lj", ["LJ (SR)"]),
-    ("coulomb", ["Coulomb (SR)"]),
+    ("coulomb", ["Coulomb (SR)", "Coul. recip."]),
     ("potential", ["Potential"]),
 ]
 
@@ -141,32 +143,45 @@ def tpr_constraint_count(dump):
     return sum(per_type.get(t, 0) * n for t, n in blocks)
 
 
-def compare_molecules(system, constraints, work):
-    """Every energy term and the forces of a molecule box, reaction field with eps_rf = infinity.
+def compare_molecules(system, constraints, coulomb, work):
+    """Every energy term and the forces of a molecule box (validation/molecules, or inputs), reaction
+    field with eps_rf = infinity at the 0.9 nm cut-off or PME as the water boxes run it.
     With constraints (GROMACS's option) the energies at the given positions and the number of
     constraints grompp made; not the forces: vimd's Simulation constrains its start first."""
     src = ROOT / "validation" / "molecules" / system
+    if not src.is_dir():
+        src = ROOT / "inputs" / system
     work.mkdir(parents=True, exist_ok=True)
+    if coulomb == "pme":
+        label, cutoff, ff = next((label, cutoff, ff) for label, cutoff, ff, _ in SETTINGS if ff["coulomb"] == "pme")
+    else:
+        label, cutoff, ff = "RF eps_rf=0", CUTOFF, dict(vdw_modifier="potential-shift", vdw_switch=0.0,
+                                                         coulomb="reaction-field", epsilon_rf=0)
+    pme = {k: ff[k] for k in ("ewald_rtol", "pme_order", "fourier_spacing") if k in ff}
     write_mdp(work / "rerun.mdp", integrator="md", nsteps=0, nstfout=1, constraints=constraints,
-              **nonbonded_mdp(CUTOFF, "potential-shift", 0.0, 0))
+              **nonbonded_mdp(cutoff, ff["vdw_modifier"], ff["vdw_switch"], ff.get("epsilon_rf", 0), coulomb=ff["coulomb"],
+                              rlist=pair_list_radius(src / "conf.gro", cutoff), pme=pme))
     run(["gmx_d", "grompp", "-f", "rerun.mdp", "-c", src / "conf.gro", "-p", src / "topol.top", "-o", "rerun.tpr", "-maxwarn", "2"], work)
-    # -rerunvsite: virtual sites placed from their atoms, as vimd places them (no domain decomposition here)
-    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-rerunvsite", "-e", "rerun.edr",
+    # -rerunvsite: virtual sites placed from their atoms, as vimd places them; a PME rerun refuses it
+    # (GROMACS 2022 decomposes the domain for PME even on one rank), and no PME case has sites
+    placement = ["-rerunvsite"] if coulomb != "pme" else []
+    run(["gmx_d", "mdrun", "-rerun", src / "conf.gro", "-s", "rerun.tpr", "-nt", "1", "-notunepme", *placement,
+         "-e", "rerun.edr",
          "-g", "rerun.log", "-o", "rerun.trr"], work)
     names = sorted({g for _, gs in MOLECULE_TERMS for g in gs})
     g = gmx_energy("gmx_d", "rerun.edr", [n.replace(" ", "-") for n in names], work)
-    vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top",
-                dict(cutoff=CUTOFF, vdw_modifier="potential-shift", coulomb="reaction-field", epsilon_rf=0,
-                     neighbor_skin=0.1),
-                integrator=dict(temperature=300.0))  # a Simulation wants velocities; the forces do not
-    text = (work / "run.toml").read_text()
-    (work / "run.toml").write_text(text.replace("[forcefield]", f'constraints = "{constraints}"\n[forcefield]'))
+    vimd_config(work / "run.toml", src / "conf.gro", src / "topol.top", dict(cutoff=cutoff, neighbor_skin=0.1, **ff),
+                integrator=dict(temperature=300.0),  # a Simulation wants velocities; the forces do not
+                system=dict(constraints=constraints))
     v = json.loads(vimd("energy", work / "run.toml", "--json"))
-    label = "RF eps_rf=0, all terms" + (f", constraints {constraints}" if constraints != "none" else "")
+    label += ", all terms" + (f", constraints {constraints}" if constraints != "none" else "")
     rows = []
     for vkey, gkeys in MOLECULE_TERMS:
         ref, got = sum(g[k][0] for k in gkeys if k in g), v[vkey]
         rows.append((system, label, vkey, ref, got, abs(got - ref) / max(abs(ref), 1e-300)))
+    if coulomb == "pme":
+        ref, got = g["Coul. recip."][0], v["coulomb_recip"]
+        rows.append((system, label, "Coul. recip.", ref, got, abs(got - ref) / abs(ref)))
     if constraints != "none":
         made = tpr_constraint_count(run(["gmx_d", "dump", "-s", "rerun.tpr"], work))
         check = vimd("check", work / "run.toml")
@@ -188,8 +203,9 @@ def main():
     ap.add_argument("--systems", nargs="*", default=["water216", "water900", "tip3p_solvated", "tip4p2005"])
     ap.add_argument("--molecules", nargs="*",
                     default=["hexane8", "hexane8:h-bonds", "torsions", "torsions:all-bonds", "collinear",
-                             "peptide_amber", "peptide_amber:h-bonds", "vsites"],
-                    help="molecule boxes of validation/molecules, each optionally with :constraints")
+                             "peptide_amber", "peptide_amber:h-bonds", "vsites", "alkane", "alkane@pme"],
+                    help="molecule boxes of validation/molecules or inputs, each optionally with :constraints "
+                         "and @pme")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -198,8 +214,10 @@ def main():
                 if system in systems:
                     rows += compare(system, label, cutoff, ff, pathlib.Path(tmp) / f"{system}_{k}")
         for case in args.molecules:
-            system, _, constraints = case.partition(":")
-            rows += compare_molecules(system, constraints or "none", pathlib.Path(tmp) / case.replace(":", "_"))
+            case_name, _, coulomb = case.partition("@")
+            system, _, constraints = case_name.partition(":")
+            rows += compare_molecules(system, constraints or "none", coulomb or "reaction-field",
+                                      pathlib.Path(tmp) / case.replace(":", "_").replace("@", "_"))
     print(f"{'system':<14} {'setting':<52} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
     print("(forces: the RMS force of each, and the RMS of the difference over the RMS force)")
     worst = 0.0
