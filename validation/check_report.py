@@ -16,7 +16,8 @@ above the round-off floor), of the other methods within [nominal - 1, nominal + 
 (smooth interactions) RATTLE's slope of RMS fluctuation vs dt 1.5-2.6 at every smoothness, the
 others' in [0.5, nominal + 1.5] (the smoothness may cap them), every RATTLE/vi time ratio positive,
 a crossover statement, and the switched run's RDF peak, RDF difference to GROMACS (< 0.5) and D;
-in section 7 (PME water) the same slope ranges and a crossover statement.
+in section 7 (PME water) the same slope ranges, a crossover statement and the price of smoothness
+(three runs compared, the change stated); in section 8 (the alkane melt) slopes and a crossover statement.
 Exit status 1 with the list of failures otherwise.
 """
 import argparse
@@ -109,7 +110,8 @@ def check_report(report_dir):
         return c
     text = readme.read_text()
     for heading in ("## 1. Energy drift", "## 2. Work-precision", "## 3. Order study", "## 4. Long runs",
-                    "## 5. MDAnalysis analyses", "## 6. Smooth interactions", "## Closing note"):
+                    "## 5. MDAnalysis analyses", "## 6. Smooth interactions", "## 7. PME water",
+                    "## 8. Real polymers", "## Closing note"):
         c.check(heading in text, f"section '{heading}' missing")
     for image in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text):
         png = report_dir / image
@@ -236,11 +238,29 @@ def check_report(report_dir):
                    f"diffusion coefficient of {row[0]} (price of smoothness)")
 
     # Section 7: the same comparison on PME water.
-    pme_text = text.split("## 7. PME water")[-1].split("## Closing note")[0]
+    pme_text = text.split("## 7. PME water")[-1].split("## 8. Real polymers")[0]
     c.check("**Crossover:**" in pme_text, "section 7 states no crossover")
     slopes = [row for _, h, rows in parse_tables(pme_text) if "slope of RMS vs dt" in h for row in rows]
     c.check(slopes, "no PME-water slope table")
     check_slopes(c, slopes, " (PME)")
+    structure = [(h, row) for _, h, rows in parse_tables(pme_text) if "RMS RDF difference to GROMACS" in h
+                 for row in rows]
+    c.check(len(structure) == 3, f"section 7's price of smoothness compares {len(structure)} runs, not 3")
+    for header, row in structure:
+        c.in_range(number(row[header.index("first peak r (nm)")]), 0.26, 0.30, f"RDF first peak of {row[0]} (PME)")
+        cell = row[header.index("RMS RDF difference to GROMACS")]
+        if cell != "(reference)":
+            c.in_range(number(cell), 0, 0.5, f"RMS RDF difference of {row[0]} to GROMACS (PME)")
+        c.in_range(number(row[header.index("D ± error (cm²/s)")].split("±")[0]), 1e-6, 3e-4,
+                   f"diffusion coefficient of {row[0]} (PME)")
+    c.check("changes the O-O RDF by" in pme_text, "section 7 states no price of smoothness")
+
+    # Section 8: the same comparison on the alkane melt.
+    polymer_text = text.split("## 8. Real polymers")[-1].split("## Closing note")[0]
+    c.check("**Crossover:**" in polymer_text, "section 8 states no crossover")
+    slopes = [row for _, h, rows in parse_tables(polymer_text) if "slope of RMS vs dt" in h for row in rows]
+    c.check(slopes, "no real-polymer slope table")
+    check_slopes(c, slopes, " (alkane melt)")
     return c
 
 

@@ -64,8 +64,8 @@ def main():
                     help="where the vimd binary was built from, for the report (e.g. 'git 3b2245f, clean export')")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse a run whose config, binary and thread count are unchanged (development aid)")
-    ap.add_argument("--sections", default="scan,order,long,smooth,pme",
-                    help="comma-separated subset of scan,order,long,smooth,pme (long includes the MDAnalysis "
+    ap.add_argument("--sections", default="scan,order,long,smooth,pme,polymer",
+                    help="comma-separated subset of scan,order,long,smooth,pme,polymer (long includes the MDAnalysis "
                          "analyses; smooth compares its switched run with long's GROMACS run when long is run)")
     args = ap.parse_args()
 
@@ -79,9 +79,10 @@ def main():
     runs_dir.mkdir(parents=True, exist_ok=True)
     clean_report_dir(report_dir)
     wanted = set(args.sections.split(","))
-    unknown = wanted - {"scan", "order", "long", "smooth", "pme"}
+    known = ("scan", "order", "long", "smooth", "pme", "polymer")
+    unknown = wanted - set(known)
     if unknown:
-        sys.exit(f"study: unknown section(s) {', '.join(sorted(unknown))} in --sections (scan, order, long, smooth, pme)")
+        sys.exit(f"study: unknown section(s) {', '.join(sorted(unknown))} in --sections ({', '.join(known)})")
 
     start, load_before = time.monotonic(), load()
     runner = Runner(args.vimd, report_dir, runs_dir, args.threads, args.reuse, log=progress)
@@ -95,6 +96,7 @@ def main():
     md = sections.mdanalysis(long, report_dir, progress) if long else None
     smooth = sections.smooth(runner, plan, report_dir, progress, long) if "smooth" in wanted else None
     pme = sections.pme(runner, plan, report_dir, progress) if "pme" in wanted else None
+    polymer = sections.polymer(runner, plan, report_dir, progress) if "polymer" in wanted else None
 
     command = "validation/run_all.sh" + "".join(f" {a}" for a in sys.argv[1:])
     meta = {"command": command, "date": f"{datetime.datetime.now():%Y-%m-%d %H:%M}", "git": git_state(),
@@ -103,10 +105,10 @@ def main():
             "run_minutes": runner.run_seconds / 60,
             "minutes": (time.monotonic() - start) / 60, "load_before": load_before, "load_after": load(),
             "runs": relative(runs_dir), "closing_dts": {"water900": 2 * FS, "polymer": 10 * FS}}
-    report.write(report_dir / "README.md", plan, meta, scan, order, long, md, smooth, pme)
+    report.write(report_dir / "README.md", plan, meta, scan, order, long, md, smooth, pme, polymer)
     (report_dir / "results.json").write_text(json.dumps(
         {"meta": meta, "quick": plan.quick, "scan": scan, "order": order, "long": long, "mdanalysis": md,
-         "smooth": smooth, "pme": pme},
+         "smooth": smooth, "pme": pme, "polymer": polymer},
         indent=1, default=str))
     progress(f"study: wrote {report_dir / 'README.md'} in {meta['minutes']:.1f} min")
     return 0

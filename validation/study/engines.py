@@ -89,7 +89,8 @@ class Runner:
         integrator |= overrides or {}
         rel = lambda p: os.path.relpath(p, config.parent)
         vimd_config(config, rel(system.structure), rel(system.topology), system.forcefield, integrator,
-                    {"dir": rel(out), "trajectory_every": trajectory_every, "energy_every": energy_every})
+                    {"dir": rel(out), "trajectory_every": trajectory_every, "energy_every": energy_every},
+                    system.system_keys)
         args = [relative(self.vimd_path), "run", relative(config), "--out", relative(out)]
         result = {"kind": "vimd", "system": system.name, "variant": variant.key, "label": variant.label,
                   "dt": dt, "steps": steps, "ps": steps * dt, "atoms": system.atoms,
@@ -153,8 +154,9 @@ class Runner:
         # (GROMACS's automatic buffer is tuned for its own drift target, not for a comparison at
         # many time steps, and must stay below half the small box).
         buffer = ff["neighbor_skin"]
-        nonbonded = nonbonded_mdp(ff["cutoff"], ff["vdw_modifier"], ff["vdw_switch"], ff["epsilon_rf"],
-                                  ff["coulomb"], rlist=ff["cutoff"] + buffer)
+        pme = {key: ff[key] for key in ("ewald_rtol", "pme_order", "fourier_spacing") if key in ff}
+        nonbonded = nonbonded_mdp(ff["cutoff"], ff["vdw_modifier"], ff["vdw_switch"], ff.get("epsilon_rf"),
+                                  ff["coulomb"], rlist=ff["cutoff"] + buffer, pme=pme)
         nonbonded["nstlist"] = max(1, min(10, int(round(0.2 * buffer / dt))))
         write_mdp(mdp, integrator=gv.integrator, dt=dt, nsteps=steps, nstcalcenergy=energy_every,
                   nstenergy=energy_every, nstlog=0, nstxout=trajectory_every, nstvout=trajectory_every,

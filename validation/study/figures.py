@@ -12,7 +12,7 @@ from . import plan  # noqa: E402
 
 STYLES = {v.key: v for v in plan.order_variants(list(plan.TABLEAU_ORDERS), list(plan.COMPOSITION_ORDERS))
           + plan.SCAN_VARIANTS + plan.GMX_VARIANTS
-          + [plan.SWITCHED_RATTLE]}
+          + [plan.SWITCHED_RATTLE, plan.SMOOTH_PME_RATTLE, plan.STANDARD_PME_RATTLE]}
 DPI = 110
 
 

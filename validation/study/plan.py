@@ -14,6 +14,7 @@ class System:
     name: str
     forcefield: dict       # the vimd [forcefield] table (nm); GROMACS gets the same settings
     note: str              # what the force field is and why
+    system_keys: dict = dataclasses.field(default_factory=dict)  # [system] keys besides the files
 
     @property
     def directory(self):
@@ -76,6 +77,29 @@ def pme_water(system, cutoff, switch, skin, pme_order, smoothness):
     return dataclasses.replace(system, forcefield=ff, note=note)
 
 
+def pme_standard(system, cutoff, skin):
+    """A water system of the study with GROMACS's standard PME: ewald_rtol 1e-5 at the cut-off,
+    fourier_spacing 0.12 nm, pme_order 4, real space and LJ potential-shifted (grompp's defaults)."""
+    ff = dict(cutoff=cutoff, vdw_modifier="potential-shift", vdw_switch=0.0, coulomb="pme",
+              coulomb_modifier="potential-shift", ewald_rtol=1e-5, pme_order=4, fourier_spacing=0.12,
+              neighbor_skin=skin)
+    note = (f"standard PME (ewald_rtol 1e-5 at {cutoff:g} nm, fourier_spacing 0.12 nm, pme_order 4), real space "
+            f"and LJ potential-shifted at {cutoff:g} nm, neighbour skin {skin:g} nm")
+    return dataclasses.replace(system, forcefield=ff, note=note)
+
+
+def alkane_melt(constraints, smoothness):
+    """The OPLS-AA n-decane melt (inputs/alkane) with `constraints` (h-bonds | all-bonds), its LJ and
+    reaction field (eps_rf = infinity) both potential-switched 0.7-0.9 nm, C^smoothness at both ends."""
+    ff = own_forcefield("alkane") | {"vdw_modifier": "potential-switch", "vdw_switch": 0.7,
+                                     "coulomb_modifier": "potential-switch", "coulomb_switch": 0.7,
+                                     "switch_smoothness": smoothness}
+    note = (f"OPLS-AA (dihedrals, 1-4 pairs), constraints = {constraints}, LJ and reaction field (eps_rf = infinity) "
+            f"both potential-switched 0.7-{ff['cutoff']:g} nm, C{smoothness} at both ends, neighbour skin "
+            f"{ff['neighbor_skin']:g} nm")
+    return System("alkane", ff, note, {"constraints": constraints})
+
+
 SYSTEMS = {
     "water900": water("water900", 0.1),
     # cut-off + skin must stay below half of the 1.864 nm box (inputs/README.md)
@@ -115,6 +139,9 @@ SHAKE = Variant("shake", "shake", {"type": "shake"}, 2, "0.55", "-", "D")
 # RATTLE on the switched interactions (section 6's price of smoothness), told apart from RATTLE on the
 # long runs' unswitched reaction field in tables and figures.
 SWITCHED_RATTLE = Variant("rattle-switched", "rattle, LJ + RF switched", {"type": "rattle"}, 2, "#d62728", "--", "s")
+# RATTLE on section 7's smooth PME (its price of smoothness) and on GROMACS's standard PME.
+SMOOTH_PME_RATTLE = Variant("rattle-smooth-pme", "rattle, smooth PME", {"type": "rattle"}, 2, "#d62728", "--", "s")
+STANDARD_PME_RATTLE = Variant("rattle-standard-pme", "rattle, standard PME", {"type": "rattle"}, 2, "black", "-", "s")
 
 
 def vi(method, bias_key):
@@ -157,6 +184,25 @@ class PmeSeries:
 def _peers(dts):
     """RATTLE, then each composition that has steps in dts, with their steps (fs)."""
     return [("rattle", RATTLE)] + [(c, composed_rattle(c)) for c in COMPOSITION_ORDERS if c in dts]
+
+
+@dataclasses.dataclass(frozen=True)
+class PolymerSeries:
+    """One integrator of the real-polymer section at one constraint set and switch smoothness."""
+    constraints: str
+    smoothness: int
+    variant: Variant
+    dts: tuple
+
+    @property
+    def level(self):
+        return f"{self.constraints} C{self.smoothness}"
+
+
+def polymer_series(constraints, smoothness, methods, dts):
+    """RATTLE, the compositions dts names, and vi [0,1] with each method, at their steps (fs)."""
+    return tuple(PolymerSeries(constraints, smoothness, v, tuple(x * FS for x in dts[key]))
+                 for key, v in _peers(dts) + [(m, vi(m, "b01")) for m in methods])
 
 
 def pme_series(pme_order, smoothness, methods, dts):
@@ -238,11 +284,17 @@ class Plan:
     smooth_series: tuple         # SmoothSeries: (smoothness, integrator, time steps)
     smooth_ps: float             # simulated time per run
     smooth_energy_interval_ps: float   # the same for every run: a multiple of every step
-    smooth_solver_tolerance: float     # vi (nm/ps): below what limits the RMS fluctuation of rk8
+    smooth_solver_tolerance: object    # vi: "auto" (section 6's tolerance study), or nm/ps
     smooth_max_iterations: int
     smooth_floor: float          # kJ/mol: RMS fluctuation of round-off and solve; slopes fit points 10x above
     smooth_threads: int          # OpenMP threads per run of section 6 (the crossover is stated at 2)
     price_smoothness: int        # the switched run set against GROMACS's unswitched long run
+    # vi's solver tolerance (section 6): each (method, dt) case on the switched water at
+    # price_smoothness, at each fixed tolerance, the bias's default and "auto"
+    tolerance_system: str
+    tolerance_cases: tuple       # (method, dt in ps)
+    tolerance_values: tuple      # fixed tolerances (nm/ps), tightest last: the reference
+    tolerance_ps: float
     # Section 7: PME water, the smooth-interactions comparison with PME's real space switched
     pme_system: str
     pme_cutoff: float            # nm
@@ -250,6 +302,14 @@ class Plan:
     pme_skin: float              # nm
     pme_series: tuple            # PmeSeries: (pme_order, smoothness, integrator, time steps)
     pme_ps: float
+    # The price of smoothness on PME water: the level whose settings vi is recommended at (pme_order,
+    # smoothness) run this long with RATTLE, against gmx_d's and vimd's standard PME runs of the box.
+    pme_price_level: tuple
+    pme_price_ps: float
+    # Section 8 on the OPLS-AA alkane melt (inputs/alkane), at each constraint set and smoothness
+    polymer_series: tuple        # PolymerSeries
+    polymer_ps: float
+    polymer_energy_interval_ps: float
     pme_energy_interval_ps: float
     stability_fraction: float = 0.01   # max |E(t) - E(0)| allowed, as a fraction of <E_kin>
 
@@ -309,14 +369,20 @@ FULL = Plan(
                                                               "rk6": (2, 3, 4, 6), "rk8": (3, 4, 6)})),
     smooth_ps=1.0,
     smooth_energy_interval_ps=0.012,   # a multiple of every step above
-    # rk8 at 6 fs converges to 1e-10 nm/ps in ~26 iterations; 200 leaves room for the slowest steps
-    smooth_solver_tolerance=1e-10,
+    # "auto" keeps the RMS fluctuation of a 1e-10 solve in fewer iterations (the tolerance study below);
+    # 200 iterations leave room for the slowest steps
+    smooth_solver_tolerance="auto",
     smooth_max_iterations=200,
-    # Round-off and the 1e-10 solve: a quick-study run (vi rk8 [-1/2,1/2], water216, 2 fs) fluctuated
-    # by only 2e-9 kJ/mol, so they stay below that; slopes use points above 1e-8.
+    # Round-off and the solve: a quick-study run (vi rk8 [-1/2,1/2], water216, 2 fs, solved to 1e-10)
+    # fluctuated by only 2e-9 kJ/mol, so they stay below that; slopes use points above 1e-8.
     smooth_floor=1e-9,
     smooth_threads=2,
     price_smoothness=4,
+    # ~4 min: every method the study runs at the steps where its tolerance matters
+    tolerance_system="water216",
+    tolerance_cases=tuple((m, x * FS) for m in ("rk4", "rk6", "rk8") for x in (2, 4)),
+    tolerance_values=(1e-4, 1e-6, 1e-8, 1e-10),
+    tolerance_ps=0.24,
     # Section 7 runs the smooth-interactions comparison on PME water: the mesh's order caps the
     # smoothness (its energy is C^(p-2)), so order 4 with rk4, 8 with rk4-rk8, 12 at C6 with rk6-rk8.
     pme_system="water900",
@@ -329,6 +395,20 @@ FULL = Plan(
                 + pme_series(12, 6, ("rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk6": (2, 3, 4),
                                                       "rk8": (2, 3, 4)} | PEER_DTS)),
     pme_ps=1.0,
+    # the study's smooth PME level recommended for vi (docs/pme.md, inputs/water900/run_vi_pme.toml); 100 ps as
+    # section 4's long runs, long enough for D to within a few per cent
+    pme_price_level=(8, 4),
+    pme_price_ps=100.0,
+    # C-H bonds rigid (the usual setting) and every bond rigid (then the fastest motion is an angle's
+    # bending, and larger steps are stable); 0.5 ps per run: the melt has 3200 atoms
+    polymer_series=(polymer_series("h-bonds", 4, ("rk4", "rk6", "rk8"),
+                                   {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4), "rk6": (1, 2, 3, 4),
+                                    "rk8": (2, 3, 4)} | PEER_DTS)
+                    + polymer_series("all-bonds", 4, ("rk4", "rk6", "rk8"),
+                                     {"rattle": (0.5, 1, 2, 3), "rk4": (2, 3, 4, 6), "rk6": (2, 3, 4, 6),
+                                      "rk8": (3, 4, 6)} | PEER_DTS)),
+    polymer_ps=0.5,
+    polymer_energy_interval_ps=0.012,
     pme_energy_interval_ps=0.012,
 )
 
@@ -361,17 +441,26 @@ QUICK = Plan(
                                                              "kahan-li6": (2, 4)}),
     smooth_ps=0.048,
     smooth_energy_interval_ps=0.004,
-    smooth_solver_tolerance=1e-10,
+    smooth_solver_tolerance="auto",
     smooth_max_iterations=200,
     smooth_floor=1e-9,
     smooth_threads=2,
     price_smoothness=4,
+    tolerance_system="water216",
+    tolerance_cases=(("rk4", 2 * FS),),
+    tolerance_values=(1e-6, 1e-10),
+    tolerance_ps=0.024,
     pme_system="water216",
     pme_cutoff=0.9,   # water216's box allows at most 0.932 nm with the skin
     pme_switch=0.7,
     pme_skin=0.03,
     pme_series=pme_series(8, 4, ("rk4",), {"rattle": (0.5, 2), "rk4": (2, 4)}),
     pme_ps=0.048,
+    pme_price_level=(8, 4),
+    pme_price_ps=1.0,
+    polymer_series=polymer_series("h-bonds", 4, ("rk4",), {"rattle": (0.5, 2), "rk4": (2, 4)}),
+    polymer_ps=0.06,   # a few periods of the fastest bending: shorter runs fluctuate by their start
+    polymer_energy_interval_ps=0.004,
     pme_energy_interval_ps=0.004,
 )
 

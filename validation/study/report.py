@@ -3,7 +3,7 @@ number names the command of the run it comes from; derived numbers name the func
 them (in validation/study)."""
 import math
 
-from .plan import GMX_VARIANTS, RATTLE, SWITCHED_RATTLE, fs
+from .plan import GMX_VARIANTS, RATTLE, SMOOTH_PME_RATTLE, STANDARD_PME_RATTLE, SWITCHED_RATTLE, fs
 
 NOT_AVAILABLE = "not available in this build"
 
@@ -487,7 +487,29 @@ def smooth_section(sm):
              f"{', '.join(str(k) for k in sm['levels'])} (`switch_smoothness`; 2 is GROMACS's quintic "
              f"potential-switch). " + _solver_text(sm))
     return "\n".join([intro] + _levels_body(sm, "smooth") +
-                     ["### The price of smoothness\n", price_section(sm["price"])])
+                     ["### The price of smoothness\n", price_section(sm["price"]),
+                      "### The solver's tolerance\n", tolerance_section(sm["tolerance"])])
+
+
+def tolerance_section(tol):
+    def cell(r):
+        if r["status"] != "ok":
+            return status_text(r)
+        s = r["summary"]
+        shown = (f" at {num(s['mean_vi_tolerance'], 2)}" if "mean_vi_tolerance" in s else "")
+        return (f"{num(r['stats']['rms_fluctuation'], 3)} ({r['rms_vs_tightest'] * 100:+.1f} %), "
+                f"{num(r['cost']['mean_iterations'], 3)} it.{shown}")
+
+    rows = [[c["label"], fs(c["dt"])] + [cell(c["runs"][name]) for name in tol["settings"]] +
+            [c["loosest"] or "none", code(c["runs"]["auto"].get("command"))] for c in tol["cases"]]
+    return (f"`inputs/{tol['system']}` ({tol['atoms']} atoms), {tol['note']}, {tol['ps']:g} ps NVE per run from its "
+            "`conf.gro`: each variational integrator at fixed solver tolerances (nm/ps), at the bias's default "
+            "(`solver_tolerance` unset) and at `\"auto\"` (a hundredth of the last step's offset from the "
+            "method's own explicit step; its mean tolerance shown). Each cell: RMS fluctuation (kJ/mol), its "
+            "difference to the tightest tolerance's, and iterations per step. \"Loosest\": the loosest fixed "
+            f"tolerance within {tol['within'] * 100:g} % of the tightest's RMS fluctuation.\n\n" +
+            table(["integrator", "dt (fs)"] + [f"tolerance {name}" for name in tol["settings"]] +
+                  ["loosest fixed", "command (auto)"], rows))
 
 
 def pme_section(pm):
@@ -498,9 +520,16 @@ def pme_section(pm):
              f"erfc(beta {ff['coulomb_switch']:g} nm) = ewald_rtol (docs/pme.md), neighbour skin "
              f"{ff['neighbor_skin']:g} nm. A level \"pP Ck\" is B-spline order P (`pme_order`: the mesh energy is "
              f"C^(P-2)) with the switch C^k. " + _solver_text(pm))
-    return "\n".join([intro] + _levels_body(pm, "pme") +
-                      ["The price of smoothness on PME water (O-O RDF and D at these settings against gmx_d's "
-                       "standard PME run) is not part of this study yet.\n"])
+    return "\n".join([intro] + _levels_body(pm, "pme") + ["### The price of smoothness on PME water\n",
+                                                          pme_price_section(pm["price"])])
+
+
+def polymer_section(pol):
+    level = next(iter(pol["levels"].values()))
+    intro = (_runs_text(pol) + f"The OPLS-AA n-decane melt: {level['note']}; a level \"h-bonds Ck\" makes the "
+             "C-H bonds rigid (GROMACS's `constraints = h-bonds`), \"all-bonds\" every bond; C^k is the switch's "
+             "smoothness. " + _solver_text(pol))
+    return "\n".join([intro] + _levels_body(pol, "polymer"))
 
 
 def _runs_text(sm):
@@ -509,7 +538,9 @@ def _runs_text(sm):
 
 
 def _solver_text(sm):
-    return (f"vi solver tolerance {sm['solver_tolerance']:g} nm/ps (max_iterations {sm['max_iterations']}), constraint "
+    solver = sm["solver_tolerance"]
+    solver = f"`\"{solver}\"`" if isinstance(solver, str) else f"{solver:g} nm/ps"
+    return (f"vi solver tolerance {solver} (max_iterations {sm['max_iterations']}), constraint "
             f"tolerance {sm['constraint_tolerance']:g}; energies every {sm['energy_interval'] * 1000:g} fs in every "
             "run. Each integrator runs its steps in turn until the first that is not stable or does not converge. "
             f"The section's runs took {sm['run_minutes']:.1f} min of wall time.\n")
@@ -572,12 +603,13 @@ def _levels_body(sm, figures_prefix):
     return out
 
 
-def price_section(price):
-    if "skipped" in price:
-        return f"Not measured: {price['skipped']}.\n"
-    res = price["results"]
+STRUCTURE_HEADER = ["trajectory", "frames", "first peak r (nm)", "g(peak)", "RMS RDF difference to GROMACS",
+                    "D ± error (cm²/s)", "mean T, engine (K)", "command"]
+
+
+def structure_rows(results):
     rows = []
-    for key, v in res.items():
+    for v in results.values():
         if "error" in v:
             rows.append([v["label"], v["error"]] + ["-"] * 6)
             continue
@@ -586,6 +618,31 @@ def price_section(price):
         rows.append([v["label"], v["frames"], num(v["rdf_peak_r"]), num(v["rdf_peak_g"]),
                      num(diff, 3) if diff is not None else "(reference)", d, num(v["temperature_engine"]),
                      code(v["command"])])
+    return rows
+
+
+def structure_sentence(what, changed, reference, own):
+    """What `what` does to the O-O RDF and D: `changed` against the GROMACS `reference` run, with
+    vimd's `own` run on the reference's interactions for scale; "" if a run lacks a result."""
+    if not all("error" not in v and v.get("diffusion") is not None for v in (changed, reference)):
+        return ""
+    sentence = (f"{what} changes the O-O RDF by an RMS difference of {num(changed.get('rdf_rms_vs_gromacs'), 3)} "
+                f"against GROMACS's run")
+    if own.get("rdf_rms_vs_gromacs") is not None:
+        sentence += f" (vimd's own run of GROMACS's interactions against it: {num(own['rdf_rms_vs_gromacs'], 3)})"
+    errors = [v["diffusion_error"] for v in (changed, reference)]
+    sentence += (f"; D = {num(changed['diffusion'], 3)} ± {num(errors[0], 2)} cm²/s against "
+                 f"{num(reference['diffusion'], 3)} ± {num(errors[1], 2)} cm²/s")
+    if None not in errors and any(errors):
+        sigma = abs(changed["diffusion"] - reference["diffusion"]) / (errors[0] ** 2 + errors[1] ** 2) ** 0.5
+        sentence += f", a difference of **{num(sigma, 2)} combined standard errors**"
+    return sentence + ".\n"
+
+
+def price_section(price):
+    if "skipped" in price:
+        return f"Not measured: {price['skipped']}.\n"
+    res = price["results"]
     switched, gromacs, own = (res.get(k, {}) for k in (SWITCHED_RATTLE.key, GMX_VARIANTS[0].key, RATTLE.key))
     text = [f"`inputs/{price['system']}` ({price['atoms']} atoms): RATTLE with {price['note']} (smoothness "
             f"C{price['smoothness']}), dt = {fs(price['dt'])} fs, {price['ps']:g} ps with the long runs' frames, "
@@ -594,21 +651,26 @@ def price_section(price):
             "temperature, which would move D by itself), set against the long runs' (section 4) unswitched reaction field: GROMACS's run (the reference) and "
             "vimd's own RATTLE run (which separates the switch from the engine). Analyses and D's standard error as in "
             "section 5.\n",
-            "![O-O RDF, switched and unswitched](smooth_rdf_oo.png)\n", "![MSD, switched and unswitched](smooth_msd.png)\n"]
-    if all("error" not in v and v.get("diffusion") is not None for v in (switched, gromacs)):
-        sentence = (f"Switching LJ and the reaction field changes the O-O RDF by an RMS difference of "
-                    f"{num(switched.get('rdf_rms_vs_gromacs'), 3)} against GROMACS's unswitched run")
-        if own.get("rdf_rms_vs_gromacs") is not None:
-            sentence += f" (vimd's unswitched run against it: {num(own['rdf_rms_vs_gromacs'], 3)})"
-        errors = [v["diffusion_error"] for v in (switched, gromacs)]
-        sentence += (f"; D = {num(switched['diffusion'], 3)} ± {num(errors[0], 2)} cm²/s switched against "
-                     f"{num(gromacs['diffusion'], 3)} ± {num(errors[1], 2)} cm²/s")
-        if None not in errors and any(errors):
-            sigma = abs(switched["diffusion"] - gromacs["diffusion"]) / (errors[0] ** 2 + errors[1] ** 2) ** 0.5
-            sentence += f", a difference of {num(sigma, 2)} combined standard errors"
-        text.append(sentence + ".\n")
-    text.append(table(["trajectory", "frames", "first peak r (nm)", "g(peak)", "RMS RDF difference to GROMACS",
-                       "D ± error (cm²/s)", "mean T, engine (K)", "command"], rows))
+            "![O-O RDF, switched and unswitched](smooth_rdf_oo.png)\n", "![MSD, switched and unswitched](smooth_msd.png)\n",
+            structure_sentence("Switching LJ and the reaction field", switched, gromacs, own),
+            table(STRUCTURE_HEADER, structure_rows(res))]
+    return "\n".join(text)
+
+
+def pme_price_section(price):
+    res = price["results"]
+    smooth, gromacs, own = (res.get(k, {}) for k in (SMOOTH_PME_RATTLE.key, GMX_VARIANTS[0].key,
+                                                     STANDARD_PME_RATTLE.key))
+    text = [f"`inputs/{price['system']}` ({price['atoms']} atoms), {price['ps']:g} ps NVE from its `conf.gro`, "
+            f"dt = {fs(price['dt'])} fs, frames every {price['frame_ps']:g} ps: RATTLE on the smooth level "
+            f"{price['level']} ({price['smooth_note']}) against {GMX_VARIANTS[0].label} on {price['standard_note']} "
+            "(the reference), and vimd's RATTLE on the same standard PME (which separates the settings from the "
+            "engine). The integrator does not change the physics sampled (the Hamiltonian does), so RATTLE stands "
+            "for the variational integrators run at these settings. Analyses and D's standard error as in "
+            "section 5.\n",
+            "![O-O RDF, smooth and standard PME](pme_rdf_oo.png)\n", "![MSD, smooth and standard PME](pme_msd.png)\n",
+            structure_sentence(f"Smooth PME ({price['level']})", smooth, gromacs, own),
+            table(STRUCTURE_HEADER, structure_rows(res))]
     return "\n".join(text)
 
 
@@ -640,7 +702,7 @@ def closing_note(scan, reference_dts):
     return "\n".join(out)
 
 
-def write(path, plan, meta, scan, order, long, md, smooth, pme):
+def write(path, plan, meta, scan, order, long, md, smooth, pme, polymer):
     quick_banner = ("> **Quick mode** (`--quick`): a smoke test with runs far too short for conclusions; the "
                     "committed full report is `validation/report/README.md`.\n\n" if plan.quick else "")
     text = [
@@ -648,7 +710,8 @@ def write(path, plan, meta, scan, order, long, md, smooth, pme):
         quick_banner,
         f"Regenerated by `{meta['command']}` on {meta['date']} from git {meta['git']}; vimd binary "
         f"`{meta['vimd']}` ({meta['vimd_state']}); {meta['threads']} OpenMP thread(s) per run"
-        + (f" ({(smooth or pme)['threads']} in sections 6 and 7)" if smooth or pme else "") + ". The runs took "
+        + (f" ({(smooth or pme or polymer)['threads']} in sections 6-8)" if smooth or pme or polymer else "")
+        + ". The runs took "
         f"{meta['run_minutes']:.1f} min of wall time"
         + (" when they ran (this invocation reused them: `--reuse`, same configs and binary)" if meta["reuse"]
            else f", the whole study {meta['minutes']:.1f} min")
@@ -663,7 +726,7 @@ def write(path, plan, meta, scan, order, long, md, smooth, pme):
         "(#1-energy-drift-and-fluctuation-vs-time-step)\n2. [Work-precision](#2-work-precision)\n3. [Order study]"
         "(#3-order-study)\n4. [Long runs](#4-long-runs)\n5. [MDAnalysis analyses](#5-mdanalysis-analyses)\n"
         "6. [Smooth interactions](#6-smooth-interactions)\n7. [PME water](#7-pme-water)\n"
-        "8. [Closing note](#closing-note)\n",
+        "8. [Real polymers](#8-real-polymers)\n9. [Closing note](#closing-note)\n",
         "## Set-up and definitions\n",
         "- **Energy drift**: slope of a least-squares line through the total energy of the run, per atom "
         "(kJ/mol/ps/atom). **RMS fluctuation**: root mean square of the total energy about that line (kJ/mol). "
@@ -695,6 +758,8 @@ def write(path, plan, meta, scan, order, long, md, smooth, pme):
         smooth_section(smooth) if smooth else "Not run.\n",
         "## 7. PME water\n",
         pme_section(pme) if pme else "Not run.\n",
+        "## 8. Real polymers\n",
+        polymer_section(polymer) if polymer else "Not run.\n",
         "## Closing note\n",
         closing_note(scan, meta["closing_dts"]),
     ]

@@ -6,8 +6,9 @@ import numpy as np
 
 from gmx_common import ROOT
 from . import energy, figures, trajectories
-from .plan import (GMX_VARIANTS, LONG_VARIANTS, RATTLE, SCAN_VARIANTS, SWITCHED_RATTLE, SYSTEMS, fs, order_variants,
-                   pme_water, relative, rk, scan_length, switched, vi)
+from .plan import (GMX_VARIANTS, LONG_VARIANTS, RATTLE, SCAN_VARIANTS, SMOOTH_PME_RATTLE, STANDARD_PME_RATTLE,
+                   SWITCHED_RATTLE, SYSTEMS, alkane_melt, fs, order_variants, pme_standard, pme_water, relative, rk,
+                   scan_length, switched, vi)
 
 
 def energy_every(dt, interval):
@@ -283,7 +284,41 @@ def smooth(runner, plan, report_dir, log, long):
     figures.smooth_work_precision(levels, report_dir / "smooth_work_precision.png")
     price = price_of_smoothness(runner, plan, long, report_dir, log)
     return _levels_result(runner, plan, base, plan.smooth_ps, plan.smooth_energy_interval_ps, levels, started) | {
-        "price": price}
+        "price": price, "tolerance": solver_tolerance(runner, plan, log)}
+
+
+TOLERANCE_WITHIN = 0.01  # a tolerance "leaves the energy error unchanged" within 1 % of the tightest's RMS
+
+
+def solver_tolerance(runner, plan, log):
+    """vi's solver tolerance against its energy error and cost: each case of the plan at every fixed
+    tolerance, the bias's default (unset) and "auto", on section 6's switched water; per case the
+    loosest fixed tolerance whose RMS fluctuation is within TOLERANCE_WITHIN of the tightest's."""
+    system = switched(SYSTEMS[plan.tolerance_system], plan.price_smoothness)
+    settings = [(f"{t:g}", {"solver_tolerance": t}) for t in plan.tolerance_values] + [
+        ("default", {}), ("auto", {"solver_tolerance": "auto"})]
+    cases = []
+    for method, dt in plan.tolerance_cases:
+        variant = vi(method, "b01")
+        log(f"[smooth tolerance] {variant.label}, {fs(dt)} fs")
+        runs = {name: runner.vimd(system, variant, dt, plan.tolerance_ps, f"tolerance-{system.name}-{name}",
+                                  energy_every(dt, plan.energy_interval_ps), 0,
+                                  overrides | {"max_iterations": plan.smooth_max_iterations},
+                                  tolerance=plan.constraint_tolerance, stability_fraction=plan.stability_fraction,
+                                  threads=plan.smooth_threads)
+                for name, overrides in settings}
+        reference = runs[f"{plan.tolerance_values[-1]:g}"]
+        loosest = None
+        if reference["status"] == "ok":
+            rms = reference["stats"]["rms_fluctuation"]
+            for name, r in runs.items():
+                if r["status"] == "ok":
+                    r["rms_vs_tightest"] = r["stats"]["rms_fluctuation"] / rms - 1
+            loosest = next((f"{t:g}" for t in plan.tolerance_values
+                            if abs(runs[f"{t:g}"].get("rms_vs_tightest", math.inf)) <= TOLERANCE_WITHIN), None)
+        cases.append({"method": method, "label": variant.label, "dt": dt, "runs": runs, "loosest": loosest})
+    return {"system": system.name, "atoms": system.atoms, "note": system.note, "ps": plan.tolerance_ps,
+            "within": TOLERANCE_WITHIN, "settings": [name for name, _ in settings], "cases": cases}
 
 
 def _level_runs(runner, plan, system, entries, ps, interval, tag, log):
@@ -325,7 +360,29 @@ def pme(runner, plan, report_dir, log):
                                       plan.smooth_floor) | {"pme_order": p}
     figures.smooth_rms(levels, plan.smooth_floor, report_dir / "pme_rms.png")
     figures.smooth_work_precision(levels, report_dir / "pme_work_precision.png")
-    return _levels_result(runner, plan, base, plan.pme_ps, plan.pme_energy_interval_ps, levels, started)
+    price = pme_price_of_smoothness(runner, plan, report_dir, log)
+    return _levels_result(runner, plan, base, plan.pme_ps, plan.pme_energy_interval_ps, levels, started) | {
+        "price": price}
+
+
+# ------------------------------------------------------------------ 8: real polymers
+def polymer(runner, plan, report_dir, log):
+    """Section 8: section 6's comparison on the OPLS-AA alkane melt (dihedrals, 1-4 pairs, rigid C-H
+    or all bonds), its LJ and reaction field switched to zero smoothly: slopes of RMS fluctuation vs
+    dt, wall time per ps against the best peer and the crossover, per constraint set."""
+    started = runner.run_seconds
+    levels, system = {}, None
+    for level in dict.fromkeys(entry.level for entry in plan.polymer_series):
+        entries = [e for e in plan.polymer_series if e.level == level]
+        system = alkane_melt(entries[0].constraints, entries[0].smoothness)
+        series = _level_runs(runner, plan, system, entries, plan.polymer_ps, plan.polymer_energy_interval_ps,
+                             f"polymer-{system.name}-{level.replace(' ', '-')}",
+                             lambda label: log(f"[polymer {level}] {label}"))
+        levels[level] = _smooth_level(system, series, {e.variant.key: e.variant.order for e in entries},
+                                      plan.smooth_floor) | {"constraints": entries[0].constraints}
+    figures.smooth_rms(levels, plan.smooth_floor, report_dir / "polymer_rms.png")
+    figures.smooth_work_precision(levels, report_dir / "polymer_work_precision.png")
+    return _levels_result(runner, plan, system, plan.polymer_ps, plan.polymer_energy_interval_ps, levels, started)
 
 
 def _smooth_level(system, series, orders, floor):
@@ -395,23 +452,54 @@ def price_of_smoothness(runner, plan, long, report_dir, log):
     run = runner.vimd(system, SWITCHED_RATTLE, long["dt"], long["ps"], f"smooth-price-{system.name}", 5, frame,
                       thermostat, tolerance=plan.constraint_tolerance, timeout=6 * 3600,
                       stability_fraction=math.inf, threads=plan.smooth_threads)
-    out = {"system": system.name, "atoms": system.atoms, "note": system.note, "smoothness": plan.price_smoothness,
-           "dt": long["dt"], "ps": long["ps"], "temperature": temperature, "tau_t": PRICE_TAU_T, "run": run,
-           "results": {}}
     compared = {SWITCHED_RATTLE.key: run} | {k: long["runs"][k] for k in (reference_key, RATTLE.key)}
-    rdfs, msds = {}, {}
+    return {"system": system.name, "atoms": system.atoms, "note": system.note, "smoothness": plan.price_smoothness,
+            "dt": long["dt"], "ps": long["ps"], "temperature": temperature, "tau_t": PRICE_TAU_T, "run": run,
+            "results": compare_structure(compared, reference_key, report_dir, "smooth", log)}
+
+
+def compare_structure(compared, reference_key, report_dir, figures_prefix, log):
+    """O-O RDF and D of each finished run in `compared` ({key: run}), each RDF's RMS difference to the
+    reference run's, and the RDF and MSD figures (<prefix>_rdf_oo.png, <prefix>_msd.png)."""
+    results, rdfs, msds = {}, {}, {}
     for key, r in compared.items():
         if "stats" not in r:
-            out["results"][key] = {"label": r["label"], "error": f"no finished run ({r['status']}: {r.get('message')})"}
+            results[key] = {"label": r["label"], "error": f"no finished run ({r['status']}: {r.get('message')})"}
             continue
-        out["results"][key], curves = analyse_water(r, log)
+        results[key], curves = analyse_water(r, log)
         if curves is not None:
             rdfs[key], msds[key] = curves["rdf"], curves["msd"]
     if reference_key in rdfs:
         for key, curve in rdfs.items():
             if key != reference_key:
-                out["results"][key]["rdf_rms_vs_gromacs"] = rdf_rms_difference(curve, rdfs[reference_key])
+                results[key]["rdf_rms_vs_gromacs"] = rdf_rms_difference(curve, rdfs[reference_key])
     if rdfs:
-        figures.rdf(rdfs, reference_key, report_dir / "smooth_rdf_oo.png")
-        figures.msd(msds, report_dir / "smooth_msd.png")
-    return out
+        figures.rdf(rdfs, reference_key, report_dir / f"{figures_prefix}_rdf_oo.png")
+        figures.msd(msds, report_dir / f"{figures_prefix}_msd.png")
+    return results
+
+
+def pme_price_of_smoothness(runner, plan, report_dir, log):
+    """Section 7's recommended smooth PME (plan.pme_price_level) against GROMACS's standard PME on the
+    same box: RATTLE on the smooth settings, gmx_d md-vv and vimd RATTLE on the standard ones, all NVE
+    from the box's conf.gro with the same step, length and frames; O-O RDF and D compared as in
+    section 5. The sampled physics is the Hamiltonian's, so RATTLE stands for every integrator."""
+    base = SYSTEMS[plan.pme_system]
+    p, k = plan.pme_price_level
+    smooth = pme_water(base, plan.pme_cutoff, plan.pme_switch, plan.pme_skin, p, k)
+    standard = pme_standard(base, plan.pme_cutoff, plan.pme_skin)
+    dt, ps = plan.long_dt, plan.pme_price_ps
+    frame = max(1, int(round(plan.long_frame_ps / dt)))
+    tag = f"pme-price-{base.name}"
+    reference = GMX_VARIANTS[0]
+    log(f"[pme price] {reference.label}, standard PME, {ps:g} ps")
+    compared = {reference.key: runner.gromacs(standard, reference, dt, ps, tag, 5, frame, timeout=6 * 3600,
+                                              stability_fraction=plan.stability_fraction)}
+    for variant, system in ((SMOOTH_PME_RATTLE, smooth), (STANDARD_PME_RATTLE, standard)):
+        log(f"[pme price] {variant.label}, {ps:g} ps")
+        compared[variant.key] = runner.vimd(system, variant, dt, ps, tag, 5, frame, tolerance=plan.constraint_tolerance,
+                                            timeout=6 * 3600, stability_fraction=plan.stability_fraction,
+                                            threads=plan.smooth_threads)
+    return {"system": base.name, "atoms": base.atoms, "level": f"p{p} C{k}", "smooth_note": smooth.note,
+            "standard_note": standard.note, "dt": dt, "ps": ps, "frame_ps": frame * dt,
+            "runs": compared, "results": compare_structure(compared, reference.key, report_dir, "pme", log)}
