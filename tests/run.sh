@@ -15,15 +15,19 @@ cmake -S "$root" -B "$root/build-sanitize" -DCMAKE_BUILD_TYPE=Release -DVIMD_SAN
 cmake --build "$root/build-sanitize" -j"$(nproc)" --target sanitize_tests
 phase_done "sanitizer build (build-sanitize/)"
 
+# Tests run side by side, one per core. Each may use two OpenMP threads, so threads that wait sleep
+# instead of spinning (spinning threads of one test would starve the other's).
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE}
+jobs=$(nproc)
 status=0
-(cd "$root/build" && OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} ctest --output-on-failure --timeout 900 "$@") || status=$?
+(cd "$root/build" && OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} ctest -j"$jobs" --output-on-failure --timeout 900 "$@") || status=$?
 phase_done "tests (build/)"
 echo "== unit tests and fuzz-corpus replay under ASan + UBSan (build-sanitize) =="
 # Any finding fails its test: UBSan halts (the build also has -fno-sanitize-recover), ASan always does.
 (cd "$root/build-sanitize" &&
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1} \
   UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1} \
-  OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} ctest --output-on-failure --timeout 900 -L sanitize "$@") || status=$?
+  OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} ctest -j"$jobs" --output-on-failure --timeout 900 -L sanitize "$@") || status=$?
 phase_done "tests under the sanitizers (build-sanitize/)"
 echo "== wall time per phase =="
 printf '%s\n' "${phases[@]}"
