@@ -1,5 +1,6 @@
 #include "forcefields/virtual_sites.hpp"
 
+#include <array>
 #include <stdexcept>
 
 #include "forcefields/dihedral_angle.hpp"
@@ -148,6 +149,19 @@ void add_to_atoms(const VirtualSite& s, const double F[3], const double gj[3], c
   }
 }
 
+// Moves the value on site s (a force, or a Hessian–vector product) onto its atoms: Jᵀ applied to it.
+// Returns the value moved, for the construction's own second derivative.
+std::array<double, 3> spread_site(const VirtualSite& s, const Box& box, const Coords& q, Coords& values) {
+  double rij[3], rik[3], gj[3], gk[3];
+  std::array<double, 3> value;
+  displacements(s, box, q, rij, rik);
+  for (int d = 0; d < 3; ++d) value[d] = values(d, s.site);
+  offset_gradient(s, rij, rik, value.data(), gj, gk);
+  add_to_atoms(s, value.data(), gj, gk, values);
+  values.col(s.site).setZero();
+  return value;
+}
+
 }  // namespace
 
 VirtualSiteConstruction::VirtualSiteConstruction(std::vector<VirtualSite> sites, const Box& box)
@@ -175,14 +189,7 @@ void VirtualSiteConstruction::tangent(const Coords& q, Coords& u) const {
 
 void VirtualSiteConstruction::spread(const Coords& q, Coords& f) const {
   // Backwards: a site built from a site hands its force on before that one is spread.
-  for (auto s = sites_.rbegin(); s != sites_.rend(); ++s) {
-    double rij[3], rik[3], F[3], gj[3], gk[3];
-    displacements(*s, box_, q, rij, rik);
-    for (int d = 0; d < 3; ++d) F[d] = f(d, s->site);
-    offset_gradient(*s, rij, rik, F, gj, gk);
-    add_to_atoms(*s, F, gj, gk, f);
-    f.col(s->site).setZero();
-  }
+  for (auto s = sites_.rbegin(); s != sites_.rend(); ++s) spread_site(*s, box_, q, f);
 }
 
 void VirtualSiteConstruction::spread_hessian(const Coords& q, const Coords& u, const Coords* site_forces,
@@ -192,18 +199,9 @@ void VirtualSiteConstruction::spread_hessian(const Coords& q, const Coords& u, c
   Coords forces;  // spread along as hv is, so that a site built from a site sees its whole force
   if (!linear_) forces = *site_forces;
   for (auto s = sites_.rbegin(); s != sites_.rend(); ++s) {
-    double rij[3], rik[3], H[3], gj[3], gk[3];
-    displacements(*s, box_, q, rij, rik);
-    for (int d = 0; d < 3; ++d) H[d] = hv(d, s->site);
-    offset_gradient(*s, rij, rik, H, gj, gk);
-    add_to_atoms(*s, H, gj, gk, hv);
-    hv.col(s->site).setZero();
+    spread_site(*s, box_, q, hv);
     if (linear_) continue;
-    double F[3];
-    for (int d = 0; d < 3; ++d) F[d] = forces(d, s->site);
-    offset_gradient(*s, rij, rik, F, gj, gk);
-    add_to_atoms(*s, F, gj, gk, forces);
-    forces.col(s->site).setZero();
+    const std::array<double, 3> F = spread_site(*s, box_, q, forces);
     if (is_linear(s->kind)) continue;
     // −(d/du)(Jᵀ F): the change of the spread force as the atoms move along u.
     Dual rij_u[3], rik_u[3], F_u[3], dj[3], dk[3];
