@@ -276,7 +276,6 @@ int keys_command(bool markdown) {
     std::fputs(config_reference_markdown().c_str(), stdout);
     return 0;
   }
-  const RunConfig defaults;
   for (const std::string& section : config_sections()) {
     std::printf("[%s]\n", section.c_str());
     for (const ConfigKey& key : config_keys()) {
@@ -284,7 +283,7 @@ int keys_command(bool markdown) {
       std::string type = key.type;
       for (std::size_t c = 0; c < key.choices.size(); ++c) type += (c ? " | " : ": ") + key.choices[c];
       std::printf("  %-22s %s; default %s%s\n  %-22s %s\n", key.name.c_str(), type.c_str(),
-                  section == "system" ? "(required)" : key.value(defaults).c_str(),
+                  shown_default(key).c_str(),
                   key.on_continue == OnContinue::must_match ? "; must match on --continue" : "", "", key.help.c_str());
     }
   }

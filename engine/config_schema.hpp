@@ -75,6 +75,9 @@ RunIdentity run_identity(const System& system, const RunConfig& config, long sum
 // "[section] name = value" of every key whose value differs from the default, one section per line.
 std::vector<std::string> non_default_settings(const RunConfig& config);
 
+// A key's default as the references show it: "(required)" for the input files, which have none.
+std::string shown_default(const ConfigKey& key);
+
 // The run-file reference in Markdown (docs/run-file.md is this text).
 std::string config_reference_markdown();
 
