@@ -299,9 +299,11 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.
   const double round_off = 8 * std::numeric_limits<double>::epsilon() * (max_abs(state.q) / h + max_abs(state.v));
   FixedPointControl& control = run.control;
-  const double offset = run.predictor.newest_offset_size(h);
-  const double tolerance =
-      settings_.tolerance_from_offset && offset > 0 ? VariationalSettings::kToleranceOfOffset * offset : settings_.tolerance;
+  double tolerance = settings_.tolerance;
+  if (settings_.tolerance_from_offset) {
+    const double offset = run.predictor.newest_offset_size(h);
+    if (offset > 0) tolerance = VariationalSettings::kToleranceOfOffset * offset;
+  }
   control.begin(std::max(tolerance, round_off));
   const bool mixed = settings_.mixed_precision_solve && problem.force_field.has_single_precision();
   double residual = std::numeric_limits<double>::infinity();

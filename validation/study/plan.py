@@ -378,7 +378,7 @@ FULL = Plan(
     smooth_floor=1e-9,
     smooth_threads=2,
     price_smoothness=4,
-    # ~4 min: every method the study runs at the steps where its tolerance matters
+    # every method the study runs, at the steps where its tolerance matters
     tolerance_system="water216",
     tolerance_cases=tuple((m, x * FS) for m in ("rk4", "rk6", "rk8") for x in (2, 4)),
     tolerance_values=(1e-4, 1e-6, 1e-8, 1e-10),
