@@ -1,7 +1,7 @@
 """Run the validation study and write its report.
 
     validation/run_all.sh [--quick] [--out DIR] [--runs DIR] [--vimd PATH] [--threads N] [--reuse]
-                          [--sections scan,order,long,smooth,pme]
+                          [--sections scan,order,long,smooth,pme,polymer]
 
 Full study (~1 h 40 min without section 7: sections 1-5 ~1 h at one thread, section 6 "Smooth
 interactions" ~40 min at two threads; section 7 "PME water", estimated 1-1.5 h at two threads, has not
@@ -38,13 +38,62 @@ def load():
     return " ".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def clean_report_dir(path):
-    """Remove what a previous run of the study wrote (and nothing else)."""
-    for child in ("configs",):
-        shutil.rmtree(path / child, ignore_errors=True)
-    for pattern in ("*.png", "README.md", "results.json"):
+# What each section writes into the report directory (globs). Section 6's price of smoothness is
+# measured only when section 4 runs too (it compares with section 4's GROMACS run).
+SECTION_FILES = {
+    "scan": ("configs/scan-*", "scan_*.png", "work_precision_*.png"),
+    "order": ("configs/order-*", "order_*.png"),
+    "long": ("configs/long-*", "long_runs.png", "rdf_oo.png", "constraint_deviations.png", "msd.png",
+             "temperature.png"),
+    "smooth": ("configs/smooth-*-C[0-9]*", "configs/tolerance-*", "smooth_rms.png", "smooth_work_precision.png"),
+    "pme": ("configs/pme-*", "pme_*.png"),
+    "polymer": ("configs/polymer-*", "polymer_*.png"),
+}
+PRICE_OF_SMOOTHNESS_FILES = ("configs/smooth-price-*", "smooth_rdf_oo.png", "smooth_msd.png")
+SECTIONS = tuple(SECTION_FILES)
+
+
+def clean_report_dir(path, sections):
+    """Remove what a previous run of the study wrote for these sections (and nothing else). The report and
+    results.json stay until the new ones replace them: they hold the sections kept."""
+    patterns = [p for section in sections for p in SECTION_FILES[section]]
+    if {"smooth", "long"} <= set(sections):
+        patterns += PRICE_OF_SMOOTHNESS_FILES
+    for pattern in patterns:
         for f in path.glob(pattern):
-            f.unlink()
+            if f.is_dir():
+                shutil.rmtree(f)
+            else:
+                f.unlink()
+
+
+def earlier_results(path, quick):
+    """The sections of the report's previous results.json (same mode), each with where its data came from, so a
+    run of some sections keeps the others instead of dropping them."""
+    try:
+        previous = json.loads((path / "results.json").read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return {}
+    if previous.get("quick") != quick:
+        return {}
+    meta = previous.get("meta", {})
+    provenance = meta.get("provenance", {})
+    kept = {}
+    for section in SECTIONS:
+        data = previous.get(section)
+        if data:
+            kept[section] = {"data": data, "mdanalysis": previous.get("mdanalysis") if section == "long" else None,
+                             "provenance": provenance.get(section) or {k: meta.get(k) for k in
+                                                                     ("command", "date", "git", "vimd_state")}}
+    return kept
+
+
+def keep_price_of_smoothness(smooth, earlier):
+    """Section 6's price of smoothness needs section 4's GROMACS run: without it, the earlier measurement
+    stays, marked with where it came from."""
+    if "skipped" in smooth["price"] and earlier and "skipped" not in earlier["data"].get("price", {"skipped": ""}):
+        smooth["price"] = earlier["data"]["price"] | {"kept_from": earlier["data"]["price"].get("kept_from")
+                                                      or earlier["provenance"]}
 
 
 def main():
@@ -66,7 +115,8 @@ def main():
                     help="reuse a run whose config, binary and thread count are unchanged (development aid)")
     ap.add_argument("--sections", default="scan,order,long,smooth,pme,polymer",
                     help="comma-separated subset of scan,order,long,smooth,pme,polymer (long includes the MDAnalysis "
-                         "analyses; smooth compares its switched run with long's GROMACS run when long is run)")
+                         "analyses; smooth compares its switched run with long's GROMACS run when long is run); the "
+                         "report keeps the other sections from its previous results.json and names where they came from")
     args = ap.parse_args()
 
     if not args.vimd.is_file():
@@ -75,14 +125,15 @@ def main():
     default_report = ROOT / "build" / "report-quick" if args.quick else ROOT / "validation" / "report"
     report_dir = (args.out or default_report).resolve()
     runs_dir = (args.runs or (report_dir / "runs" if args.quick else ROOT / "build" / "study-runs")).resolve()
+    wanted = set(args.sections.split(","))
+    unknown = wanted - set(SECTIONS)
+    if unknown:
+        sys.exit(f"study: unknown section(s) {', '.join(sorted(unknown))} in --sections ({', '.join(SECTIONS)})")
     report_dir.mkdir(parents=True, exist_ok=True)
     runs_dir.mkdir(parents=True, exist_ok=True)
-    clean_report_dir(report_dir)
-    wanted = set(args.sections.split(","))
-    known = ("scan", "order", "long", "smooth", "pme", "polymer")
-    unknown = wanted - set(known)
-    if unknown:
-        sys.exit(f"study: unknown section(s) {', '.join(sorted(unknown))} in --sections ({', '.join(known)})")
+    earlier = earlier_results(report_dir, plan.quick)
+    kept = {k: v for k, v in earlier.items() if k not in wanted}
+    clean_report_dir(report_dir, [k for k in SECTIONS if k not in kept])
 
     start, load_before = time.monotonic(), load()
     runner = Runner(args.vimd, report_dir, runs_dir, args.threads, args.reuse, log=progress)
@@ -90,26 +141,38 @@ def main():
                   if args.vimd.exists() else "missing")
     progress(f"study: {'quick' if plan.quick else 'full'} mode, report in {report_dir}, runs in {runs_dir}")
 
-    scan = sections.scan(runner, plan, report_dir, progress) if "scan" in wanted else {}
-    order = sections.order(runner, plan, report_dir, progress) if "order" in wanted else None
-    long = sections.long_runs(runner, plan, report_dir, progress) if "long" in wanted else None
-    md = sections.mdanalysis(long, report_dir, progress) if long else None
-    smooth = sections.smooth(runner, plan, report_dir, progress, long) if "smooth" in wanted else None
-    pme = sections.pme(runner, plan, report_dir, progress) if "pme" in wanted else None
-    polymer = sections.polymer(runner, plan, report_dir, progress) if "polymer" in wanted else None
+    fresh = {"scan": sections.scan(runner, plan, report_dir, progress) if "scan" in wanted else None,
+             "order": sections.order(runner, plan, report_dir, progress) if "order" in wanted else None,
+             "long": sections.long_runs(runner, plan, report_dir, progress) if "long" in wanted else None}
+    fresh["mdanalysis"] = sections.mdanalysis(fresh["long"], report_dir, progress) if fresh["long"] else None
+    if "smooth" in wanted:
+        fresh["smooth"] = sections.smooth(runner, plan, report_dir, progress, fresh["long"])
+        keep_price_of_smoothness(fresh["smooth"], earlier.get("smooth"))
+    if "pme" in wanted:
+        fresh["pme"] = sections.pme(runner, plan, report_dir, progress)
+    if "polymer" in wanted:
+        fresh["polymer"] = sections.polymer(runner, plan, report_dir, progress)
 
     command = "validation/run_all.sh" + "".join(f" {a}" for a in sys.argv[1:])
-    meta = {"command": command, "date": f"{datetime.datetime.now():%Y-%m-%d %H:%M}", "git": git_state(),
-            "vimd": relative(args.vimd), "threads": args.threads, "reuse": args.reuse,
-            "vimd_state": f"{args.vimd_source}, {vimd_state}" if args.vimd_source else vimd_state,
-            "run_minutes": runner.run_seconds / 60,
-            "minutes": (time.monotonic() - start) / 60, "load_before": load_before, "load_after": load(),
-            "runs": relative(runs_dir), "closing_dts": {"water900": 2 * FS, "polymer": 10 * FS}}
-    report.write(report_dir / "README.md", plan, meta, scan, order, long, md, smooth, pme, polymer)
-    (report_dir / "results.json").write_text(json.dumps(
-        {"meta": meta, "quick": plan.quick, "scan": scan, "order": order, "long": long, "mdanalysis": md,
-         "smooth": smooth, "pme": pme, "polymer": polymer},
-        indent=1, default=str))
+    this_run = {"command": command, "date": f"{datetime.datetime.now():%Y-%m-%d %H:%M}", "git": git_state(),
+                "vimd_state": f"{args.vimd_source}, {vimd_state}" if args.vimd_source else vimd_state}
+    results = {section: fresh.get(section) for section in SECTIONS} | {"mdanalysis": fresh["mdanalysis"]}
+    provenance = {section: this_run for section in wanted}
+    for section, earlier in kept.items():
+        results[section] = earlier["data"]
+        provenance[section] = earlier["provenance"]
+        if section == "long":
+            results["mdanalysis"] = earlier["mdanalysis"]
+    meta = this_run | {
+        "vimd": relative(args.vimd), "threads": args.threads, "reuse": args.reuse,
+        "run_minutes": runner.run_seconds / 60,
+        "minutes": (time.monotonic() - start) / 60, "load_before": load_before, "load_after": load(),
+        "runs": relative(runs_dir), "closing_dts": {"water900": 2 * FS, "polymer": 10 * FS},
+        "provenance": provenance, "kept": sorted(kept, key=SECTIONS.index)}
+    report.write(report_dir / "README.md", plan, meta, results["scan"] or {}, results["order"], results["long"],
+                 results["mdanalysis"], results["smooth"], results["pme"], results["polymer"])
+    (report_dir / "results.json").write_text(json.dumps({"meta": meta, "quick": plan.quick} | results,
+                                                        indent=1, default=str))
     progress(f"study: wrote {report_dir / 'README.md'} in {meta['minutes']:.1f} min")
     return 0
 

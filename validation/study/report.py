@@ -644,7 +644,10 @@ def price_section(price):
         return f"Not measured: {price['skipped']}.\n"
     res = price["results"]
     switched, gromacs, own = (res.get(k, {}) for k in (SWITCHED_RATTLE.key, GMX_VARIANTS[0].key, RATTLE.key))
-    text = [f"`inputs/{price['system']}` ({price['atoms']} atoms): RATTLE with {price['note']} (smoothness "
+    kept = price.get("kept_from")
+    text = [f"Kept from `{kept['command']}` on {kept['date']} (git {kept['git']}): this invocation did not run section "
+            "4, whose GROMACS run it compares with.\n" if kept else "",
+            f"`inputs/{price['system']}` ({price['atoms']} atoms): RATTLE with {price['note']} (smoothness "
             f"C{price['smoothness']}), dt = {fs(price['dt'])} fs, {price['ps']:g} ps with the long runs' frames, "
             f"held by a v-rescale thermostat (tau_t = {price['tau_t']:g} ps) at the GROMACS run's mean temperature, "
             f"{price['temperature']:g} K (in NVE from the same start the switched box settles at another "
@@ -654,7 +657,7 @@ def price_section(price):
             "![O-O RDF, switched and unswitched](smooth_rdf_oo.png)\n", "![MSD, switched and unswitched](smooth_msd.png)\n",
             structure_sentence("Switching LJ and the reaction field", switched, gromacs, own),
             table(STRUCTURE_HEADER, structure_rows(res))]
-    return "\n".join(text)
+    return "\n".join(t for t in text if t)
 
 
 def pme_price_section(price):
@@ -702,6 +705,35 @@ def closing_note(scan, reference_dts):
     return "\n".join(out)
 
 
+SECTION_NUMBERS = {"scan": "1-2", "order": "3", "long": "4-5", "smooth": "6", "pme": "7", "polymer": "8"}
+
+
+def kept_sections_text(meta):
+    """Where the sections this invocation did not rerun come from (`--sections` keeps the others)."""
+    kept = meta.get("kept") or []
+    if not kept:
+        return ""
+    rows = [[f"{SECTION_NUMBERS[k]} ({k})", code(p["command"]), p["date"], p["git"], p["vimd_state"]]
+            for k in kept for p in [meta["provenance"][k]]]
+    return ("**Sections kept from earlier invocations** (this one ran only "
+            + ", ".join(f"{n} ({k})" for k, n in SECTION_NUMBERS.items() if k in meta["provenance"] and k not in kept)
+            + "; the others' data and figures are those of the invocation named here):\n\n"
+            + table(["sections", "command", "date", "git", "vimd binary"], rows))
+
+
+def kept_or_fresh(name, meta, render, data):
+    """A section's text; a section kept from an earlier invocation whose data this code cannot read (an older
+    format) is named instead of failing the whole report."""
+    if name not in (meta.get("kept") or []):
+        return render(data)
+    try:
+        return render(data)
+    except (KeyError, TypeError, IndexError) as e:
+        p = meta["provenance"][name]
+        return (f"Not shown: the data kept from `{p['command']}` ({p['date']}, git {p['git']}) is in an older format "
+                f"than this report reads ({type(e).__name__} {e}); rerun the section with `--sections {name}`.\n")
+
+
 def write(path, plan, meta, scan, order, long, md, smooth, pme, polymer):
     quick_banner = ("> **Quick mode** (`--quick`): a smoke test with runs far too short for conclusions; the "
                     "committed full report is `validation/report/README.md`.\n\n" if plan.quick else "")
@@ -717,6 +749,7 @@ def write(path, plan, meta, scan, order, long, md, smooth, pme, polymer):
            else f", the whole study {meta['minutes']:.1f} min")
         + f"; load average {meta['load_before']} before, {meta['load_after']} after (the 2-core machine is "
         "shared, so wall times are noisy).\n",
+        kept_sections_text(meta),
         "Every number comes from the run whose command is in its table row. Config files (`.toml` for vimd, "
         "`.mdp` for GROMACS) are kept next to this report in `configs/` and name their inputs by relative path; "
         f"run outputs go to `{meta['runs']}` (not in the repository). Derived quantities are computed from those "
@@ -745,21 +778,21 @@ def write(path, plan, meta, scan, order, long, md, smooth, pme, polymer):
         "when it rejected one):\n",
         availability(scan, order, long),
         "## 1. Energy drift and fluctuation vs time step\n",
-        *[scan_section(s) for s in scan.values()],
+        *[kept_or_fresh("scan", meta, scan_section, s) for s in scan.values()],
         "## 2. Work-precision\n",
-        *[work_precision_section(s) for s in scan.values()],
+        *[kept_or_fresh("scan", meta, work_precision_section, s) for s in scan.values()],
         "## 3. Order study\n",
-        order_section(order) if order else "Not run.\n",
+        kept_or_fresh("order", meta, order_section, order) if order else "Not run.\n",
         "## 4. Long runs\n",
-        long_section(long) if long else "Not run.\n",
+        kept_or_fresh("long", meta, long_section, long) if long else "Not run.\n",
         "## 5. MDAnalysis analyses\n",
-        mdanalysis_section(md, long) if md else "Not run.\n",
+        kept_or_fresh("long", meta, lambda m: mdanalysis_section(m, long), md) if md else "Not run.\n",
         "## 6. Smooth interactions\n",
-        smooth_section(smooth) if smooth else "Not run.\n",
+        kept_or_fresh("smooth", meta, smooth_section, smooth) if smooth else "Not run.\n",
         "## 7. PME water\n",
-        pme_section(pme) if pme else "Not run.\n",
+        kept_or_fresh("pme", meta, pme_section, pme) if pme else "Not run.\n",
         "## 8. Real polymers\n",
-        polymer_section(polymer) if polymer else "Not run.\n",
+        kept_or_fresh("polymer", meta, polymer_section, polymer) if polymer else "Not run.\n",
         "## Closing note\n",
         closing_note(scan, meta["closing_dts"]),
     ]
