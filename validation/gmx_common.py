@@ -21,6 +21,13 @@ def _timed(cmd, cwd, **kwargs):
     return p
 
 
+def cpu_model():
+    for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return "unknown CPU"
+
+
 def gmx_env(env=None):
     """The environment for a gmx/gmx_d command. Debian's GROMACS refuses to start when CPUID does
     not advertise rdtscp, which some VMs hide although the instruction works: there the shim built

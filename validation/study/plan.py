@@ -384,12 +384,13 @@ FULL = Plan(
     tolerance_values=(1e-4, 1e-6, 1e-8, 1e-10),
     tolerance_ps=0.24,
     # Section 7 runs the smooth-interactions comparison on PME water: the mesh's order caps the
-    # smoothness (its energy is C^(p-2)), so order 4 with rk4, 8 with rk4-rk8, 12 at C6 with rk6-rk8.
+    # smoothness (its energy is C^(p-2)), so order 4 with rk4, 8 with rk4-rk8, 12 at C6 with rk6-rk8;
+    # the compositions at every level, so that every crossover is against the best peer there.
     pme_system="water900",
     pme_cutoff=1.0,
     pme_switch=0.8,
     pme_skin=0.1,
-    pme_series=(pme_series(4, 4, ("rk4",), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4)})
+    pme_series=(pme_series(4, 4, ("rk4",), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4)} | PEER_DTS)
                 + pme_series(8, 4, ("rk4", "rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk4": (1, 2, 3, 4),
                                                             "rk6": (2, 3, 4), "rk8": (2, 3, 4)} | PEER_DTS)
                 + pme_series(12, 6, ("rk6", "rk8"), {"rattle": (0.25, 0.5, 1, 2), "rk6": (2, 3, 4),
