@@ -3,9 +3,8 @@
     validation/run_all.sh [--quick] [--out DIR] [--runs DIR] [--vimd PATH] [--threads N] [--reuse]
                           [--sections scan,order,long,smooth,pme,polymer]
 
-Full study (~1 h 40 min without section 7: sections 1-5 ~1 h at one thread, section 6 "Smooth
-interactions" ~40 min at two threads; section 7 "PME water", estimated 1-1.5 h at two threads, has not
-run in full yet): report in validation/report/, run outputs in build/study-runs/.
+Full study: sections 1-5 about 1 h at one thread, sections 6-8 about 2 h at two threads; report in
+validation/report/, run outputs in build/study-runs/. --sections reruns some sections and keeps the others.
 --quick:    a smoke test of every section with tiny runs; report in build/report-quick/ (or --out),
             so the committed full report is never overwritten by tests.
 """
