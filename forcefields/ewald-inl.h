@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <tuple>
+#include <type_traits>
 
 #include "engine/simd-inl.h"
 #include "forcefields/ewald.hpp"
@@ -79,8 +80,38 @@ HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T&
   gauss = gauss * (e.beta * M_2_SQRTPI);
 }
 
+// Single precision, as GROMACS's nbnxm kernels do it: the bare Coulomb terms minus corrections that
+// are rational functions of z = (βr)², without exp or erfc (erfc(βr)/r = 1/r − β E(z) and
+// (erfc(βr)/r + 2β/√π e^(−z))/r² = 1/r³ − β³ F(z)), fitted for βr ≤ EwaldRealSpace::kRationalRange to
+// well below single precision's rounding of the bare terms: validation/fit_ewald_float.py.
+template <class V>
+HWY_INLINE V ewald_energy_correction(V z) {
+  static constexpr double kNum[] = {1.128379195e+00, 1.929159574e-01, 5.613601597e-02,
+                                    4.278383249e-03, 4.289106622e-04, 7.466733744e-06};
+  static constexpr double kDen[] = {1.000000000e+00, 5.043010283e-01, 1.178479103e-01, 1.645710835e-02,
+                                    1.454587605e-03, 7.746761439e-05, 2.974170212e-07};
+  return ewald_polynomial(z, kNum) / ewald_polynomial(z, kDen);
+}
+template <class V>
+HWY_INLINE V ewald_force_correction(V z) {
+  static constexpr double kNum[] = {7.522547145e-01, -1.049441966e-02, 1.915510680e-02,
+                                    3.320415292e-04, 9.944528772e-05, 7.502528747e-07};
+  static constexpr double kDen[] = {1.000000000e+00, 5.860654475e-01, 1.627804340e-01, 2.812267179e-02,
+                                    3.290400788e-03, 2.681326463e-04, 1.440610668e-05};
+  return ewald_polynomial(z, kNum) / ewald_polynomial(z, kDen);
+}
+
 template <EwaldModifier M, class T>
 HWY_INLINE void ewald_energy_force(const EwaldRealSpace& e, T qq, T rinv, T r2, T& v, T& g) {
+  if constexpr (std::is_same_v<T, SimdVec<float>>) {
+    if (e.rational_in_float) {
+      const T z = r2 * (e.beta * e.beta);
+      v = qq * (rinv - e.beta * ewald_energy_correction(z) - e.shift);
+      g = qq * (rinv * rinv * rinv - (e.beta * e.beta * e.beta) * ewald_force_correction(z));
+      if constexpr (M == EwaldModifier::potential_switch) apply_switch_energy_force(e.sw, r2 * rinv, rinv, v, g);
+      return;
+    }
+  }
   T erfc_r, gauss;
   ewald_parts(e, r2, rinv, erfc_r, gauss);
   v = qq * (erfc_r - e.shift);
