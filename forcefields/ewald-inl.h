@@ -1,7 +1,7 @@
 // PME real-space pair kernels (formulas and conventions: ewald.hpp), as templates on the number
-// type: double (std::erfc, for tests and the excluded pairs), or SimdVec (erfc from W. J. Cody's
-// rational approximations), and as a pair form of the pair loop (pair_form-inl.h). A Highway
-// per-target header: see engine/simd-inl.h.
+// type: double (std::erfc, for tests and the excluded pairs), or SimdVec (forces and energies from
+// rational corrections to the bare Coulomb terms; Hessians from W. J. Cody's erfc), and as a pair
+// form of the pair loop (pair_form-inl.h). A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_EWALD_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_EWALD_INL_H_
 #undef VIMD_FORCEFIELDS_EWALD_INL_H_
@@ -80,31 +80,54 @@ HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T&
   gauss = gauss * (e.beta * M_2_SQRTPI);
 }
 
-// Single precision, as GROMACS's nbnxm kernels do it: the bare Coulomb terms minus corrections that
-// are rational functions of z = (βr)², without exp or erfc (erfc(βr)/r = 1/r − β E(z) and
-// (erfc(βr)/r + 2β/√π e^(−z))/r² = 1/r³ − β³ F(z)), fitted for βr ≤ EwaldRealSpace::kRationalRange to
-// well below single precision's rounding of the bare terms: validation/fit_ewald_float.py.
+// The SIMD kernels' forces and energies, as GROMACS's nbnxm kernels compute them: the bare Coulomb
+// terms minus corrections that are rational functions of z = (βr)², without exp or erfc:
+// erfc(βr)/r = 1/r − β E(z) and (erfc(βr)/r + 2β/√π e^(−z))/r² = 1/r³ − β³ F(z). Fitted for
+// βr ≤ EwaldRealSpace::kRationalRange to each precision's rounding of the bare terms;
+// validation/fit_ewald_corrections.py prints the coefficients and their errors.
+template <class V>
+HWY_INLINE V ewald_rational(V z, const double (&num)[6], const double (&den)[7], const double (&num_double)[11],
+                            const double (&den_double)[11]) {
+  if constexpr (std::is_same_v<V, SimdVec<double>>) return ewald_polynomial(z, num_double) / ewald_polynomial(z, den_double);
+  return ewald_polynomial(z, num) / ewald_polynomial(z, den);
+}
 template <class V>
 HWY_INLINE V ewald_energy_correction(V z) {
-  static constexpr double kNum[] = {1.128379195e+00, 1.929159574e-01, 5.613601597e-02,
-                                    4.278383249e-03, 4.289106622e-04, 7.466733744e-06};
-  static constexpr double kDen[] = {1.000000000e+00, 5.043010283e-01, 1.178479103e-01, 1.645710835e-02,
-                                    1.454587605e-03, 7.746761439e-05, 2.974170212e-07};
-  return ewald_polynomial(z, kNum) / ewald_polynomial(z, kDen);
+  static constexpr double kNum[] = {1.128379195, 0.1929366645, 0.05613585699, 0.004278845216, 0.0004287928443,
+                                    7.461626945e-06};
+  static constexpr double kDen[] = {1, 0.5043193748, 0.1178539019, 0.01645765158, 0.001454529627, 7.74300389e-05,
+                                    2.971532424e-07};
+  static constexpr double kNumDouble[] = {
+      1.1283791670955152,     0.20686403575044873,    0.06238933845671546,    0.0058926025224449105,
+      0.0007104928185961188,  4.0536731266223132e-05, 2.4987478632378316e-06, 8.0595909868393944e-08,
+      2.3478281621438592e-09, 1.8280595143228341e-11, 7.249553750099651e-15};
+  static constexpr double kDenDouble[] = {
+      1,                      0.51666181172327652,    0.12751171550861382,    0.01986943082596911,
+      0.0021734719951191049,  0.00017508848785885992, 1.0552602475971491e-05, 4.6973450853606598e-07,
+      1.4582974290734883e-08, 2.6591977890017528e-10, 6.4143222906089195e-13};
+  return ewald_rational(z, kNum, kDen, kNumDouble, kDenDouble);
 }
 template <class V>
 HWY_INLINE V ewald_force_correction(V z) {
-  static constexpr double kNum[] = {7.522547145e-01, -1.049441966e-02, 1.915510680e-02,
-                                    3.320415292e-04, 9.944528772e-05, 7.502528747e-07};
-  static constexpr double kDen[] = {1.000000000e+00, 5.860654475e-01, 1.627804340e-01, 2.812267179e-02,
-                                    3.290400788e-03, 2.681326463e-04, 1.440610668e-05};
-  return ewald_polynomial(z, kNum) / ewald_polynomial(z, kDen);
+  static constexpr double kNum[] = {0.7522546887, -0.01050313425, 0.01915542489, 0.0003318108751, 9.944319324e-05,
+                                    7.503196879e-07};
+  static constexpr double kDen[] = {1, 0.586053736, 0.1627740619, 0.02812078672, 0.003290181803, 0.0002680790362,
+                                    1.440679964e-05};
+  static constexpr double kNumDouble[] = {
+      0.75225277806347568,    -0.0244085047778702,    0.021932315109707289,   2.1910717105507921e-05,
+      0.00015697230478742033, 2.4471079162018214e-06, 4.0379591946975835e-07, 7.1193974787142854e-09,
+      3.4756146905561236e-10, 1.5029829792410182e-12, -1.2652072019335529e-15};
+  static constexpr double kDenDouble[] = {
+      1,                      0.56755278877921356,    0.15540147129070958,    0.027207110306834391,
+      0.0033996948220336737,  0.00032000313686367715, 2.3283044065579796e-05, 1.3167106043690937e-06,
+      5.6945831671277397e-08, 1.7748726972919279e-09, 3.5022492462655167e-11};
+  return ewald_rational(z, kNum, kDen, kNumDouble, kDenDouble);
 }
 
 template <EwaldModifier M, class T>
 HWY_INLINE void ewald_energy_force(const EwaldRealSpace& e, T qq, T rinv, T r2, T& v, T& g) {
-  if constexpr (std::is_same_v<T, SimdVec<float>>) {
-    if (e.rational_in_float) {
+  if constexpr (!std::is_arithmetic_v<T>) {
+    if (e.rational_corrections) {
       const T z = r2 * (e.beta * e.beta);
       v = qq * (rinv - e.beta * ewald_energy_correction(z) - e.shift);
       g = qq * (rinv * rinv * rinv - (e.beta * e.beta * e.beta) * ewald_force_correction(z));

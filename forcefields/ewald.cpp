@@ -53,7 +53,7 @@ EwaldRealSpace EwaldRealSpace::from_config(const ForceFieldConfig& config) {
   }
   e.beta = ewald_beta(ewald_rtol_distance(config), config.ewald_rtol);
   if (modifier == "potential-shift") e.shift = std::erfc(e.beta * config.cutoff) / config.cutoff;
-  e.rational_in_float = e.beta * config.cutoff <= kRationalRange;
+  e.rational_corrections = e.beta * config.cutoff <= kRationalRange;
   return e;
 }
 

@@ -42,10 +42,10 @@ struct EwaldRealSpace {
   double shift = 0;      // nm⁻¹: erfc(β rc)/rc with potential-shift, 0 otherwise
   double ewald_rtol = 0;
   SwitchFunction sw;     // potential_switch only
-  // The single-precision kernels' rational corrections are fitted for βr ≤ kRationalRange; beyond
-  // (a tiny ewald_rtol or a long switch) they use erfc.
+  // The SIMD kernels' rational corrections (ewald-inl.h) are fitted for βr ≤ kRationalRange; beyond
+  // it (a tiny ewald_rtol or a long switch) the kernels use erfc.
   static constexpr double kRationalRange = 4.5;
-  bool rational_in_float = false;
+  bool rational_corrections = false;
 };
 
 // β such that erfc(β r) = rtol, found as GROMACS's calc_ewaldcoeff_q finds it (bisection), so that

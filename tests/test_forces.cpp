@@ -211,29 +211,43 @@ TEST(EwaldRealSpace, VectorErfcMatchesTheStandardLibrary) {
   }
 }
 
-// The single-precision kernels' rational corrections, E(z) = erf(x)/x and F(z) = (erf(x)/x − 2/√π e^(−z))/z
-// with z = x², evaluated in float, against std::erf over their range 0 ≤ x ≤ 4.5; their errors count
-// against the bare Coulomb terms they are subtracted from (1/r and 1/r³: x E and x³ F), never less
-// than 1 % of the function itself. Float rounding of the bare terms alone is ~1e-7.
-TEST(EwaldRealSpace, SinglePrecisionCorrectionsMatchTheStandardLibrary) {
-  const int lanes = static_cast<int>(hn::Lanes(SimdFloat::Tag()));
+// The SIMD kernels' rational corrections, E(z) = erf(x)/x and F(z) = (erf(x)/x − 2/√π e^(−z))/z with
+// z = x², in single and double precision against std::erf over their range 0 ≤ x ≤ 4.5; their errors
+// count against the bare Coulomb terms they are subtracted from (1/r and 1/r³: x E and x³ F), and at
+// least as 1 % of the function's value. Each precision's rounding of the bare terms: ~1e-7, ~1e-16.
+template <class Real>
+void expect_rational_corrections_match(double tolerance) {
+  using V = SimdVec<Real>;
+  const int lanes = V::lanes();
   double worst_e = 0, worst_f = 0;
   for (int k0 = 0; k0 < 4500; k0 += lanes) {
-    float z[16], e[16], f[16];
-    for (int k = 0; k < lanes; ++k) z[k] = static_cast<float>(std::pow(std::min(k0 + k, 4500) * 1e-3, 2));
+    Real z[16], e[16], f[16];
+    for (int k = 0; k < lanes; ++k) z[k] = static_cast<Real>(std::pow(std::min(k0 + k, 4500) * 1e-3, 2));
     simd_store(e, ewald_energy_correction(simd_load(z)));
     simd_store(f, ewald_force_correction(simd_load(z)));
     for (int k = 0; k < lanes; ++k) {
       const double zk = z[k], x = std::sqrt(zk);
       const double erf_x = x > 0 ? std::erf(x) / x : M_2_SQRTPI;
-      const double exact_f = x > 1e-2 ? (erf_x - M_2_SQRTPI * std::exp(-zk)) / zk : M_2_SQRTPI * 2 / 3 * (1 - 0.6 * zk);
-      worst_e = std::max(worst_e, std::abs(e[k] - erf_x) / std::max(1 / x, 0.01 * erf_x));
-      worst_f = std::max(worst_f, std::abs(f[k] - exact_f) / std::max(1 / (x * x * x), 0.01 * exact_f));
+      // below x = 0.1 from its series, 2/√π Σ (−z)^(n−1) 2n/(n! (2n+1)), n ≥ 1, to round-off
+      double exact_f = 0;
+      if (x > 0.1) {
+        exact_f = (erf_x - M_2_SQRTPI * std::exp(-zk)) / zk;
+      } else {
+        double power_over_factorial = 1;  // (−z)^(n−1)/n!
+        for (int n = 1; n <= 8; power_over_factorial *= -zk / ++n) exact_f += power_over_factorial * 2 * n / (2 * n + 1);
+        exact_f *= M_2_SQRTPI;
+      }
+      worst_e = std::max(worst_e, std::abs(e[k] - erf_x) * std::max(x, 0.01 * erf_x));
+      worst_f = std::max(worst_f, std::abs(f[k] - exact_f) * std::max(x * x * x, 0.01 * exact_f));
     }
   }
-  EXPECT_LT(worst_e, 1e-6);
-  EXPECT_LT(worst_f, 1e-6);
-  EXPECT_GT(worst_f, 1e-9) << "no float rounding: are these the single-precision corrections?";
+  EXPECT_LT(worst_e, tolerance) << sizeof(Real) << "-byte reals";
+  EXPECT_LT(worst_f, tolerance) << sizeof(Real) << "-byte reals";
+  EXPECT_GT(worst_f, tolerance * 1e-3) << "no rounding at all: are these the SIMD corrections?";
+}
+TEST(EwaldRealSpace, RationalCorrectionsMatchTheStandardLibrary) {
+  expect_rational_corrections_match<float>(1e-6);
+  expect_rational_corrections_match<double>(1e-14);
 }
 
 // The real-space Coulomb energy of PME from an O(N²) sum with std::erfc: interacting pairs
