@@ -10,8 +10,11 @@ LINCS of order 12 and 4 iterations: the integrator of vimd's RATTLE, with anothe
 field as its run.toml; gmx_d md-vv with LINCS of order 8 and 4 iterations (GROMACS's SHAKE has been seen
 to stop on OPLS-AA alkane melts with a range-check error), 10 ps at 2 fs by default.
 A single run's drift is mostly its random walk; `--seeds N` gives each engine N independent starts.
+`--precision mixed`: vimd with `precision = "mixed"` (single-precision pair forces) against GROMACS in
+mixed precision (`gmx`, or the build given by `--gmx`, e.g. one built for this CPU).
 Usage: /usr/bin/python3 validation/gromacs_nve.py [--system water900|polymer|alkane] [--coulomb reaction-field|pme]
                                                   [--ps 20] [--dt 0.002] [--gmx-vv] [--seeds N]
+                                                  [--precision double|mixed] [--gmx PATH]
 """
 import argparse
 import json
@@ -79,7 +82,10 @@ def main():
                          "mean drift and its standard error per engine")
     ap.add_argument("--gmx-vv", action="store_true",
                     help="polymer: GROMACS md-vv with LINCS (order 12, 4 iterations) instead of md with SHAKE")
+    ap.add_argument("--precision", default="double", choices=["double", "mixed"])
+    ap.add_argument("--gmx", help="the GROMACS to compare with (default: gmx_d, or gmx with --precision mixed)")
     args = ap.parse_args()
+    args.gmx = args.gmx or ("gmx" if args.precision == "mixed" else "gmx_d")
     src = ROOT / "inputs" / args.system
     setup = SETUPS.get(args.system, PME_WATER if args.coulomb == "pme" else WATER)
     if args.gmx_vv and setup is POLYMER:
@@ -89,8 +95,12 @@ def main():
     args.dt = args.dt or setup["dt"]
     args.ps = args.ps or setup["ps"]
     atoms = int((src / "conf.gro").read_text().splitlines()[1])
-    gmx_name = f"gmx_d {setup['gmx']['integrator']}"
-    print(f"NVE, {args.system} ({atoms} atoms), dt = {args.dt} ps, {args.ps} ps, {setup['label']}")
+    gmx_name = f"{pathlib.Path(args.gmx).name} {setup['gmx']['integrator']}"
+    if args.precision == "mixed":
+        setup = setup | dict(ff=setup["ff"] | dict(precision="mixed"))
+    label = setup["label"].replace("gmx_d", pathlib.Path(args.gmx).name)
+    print(f"NVE, {args.system} ({atoms} atoms), dt = {args.dt} ps, {args.ps} ps, {label}; "
+          f"{args.precision} precision: vimd against {args.gmx}")
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(args.keep or tmp)
         if not args.seeds:
@@ -126,7 +136,7 @@ def main():
         # The difference of the means in units of its standard error: |z| < 2 is agreement at ~95 %.
         for key in ("drift", "fluct"):
             (a, sa), (b, sb) = means["vimd rattle", key], means[gmx_name, key]
-            print(f"{key}: vimd - gmx_d = {a - b:+.3e}, z = {(a - b) / np.hypot(sa, sb):+.2f}")
+            print(f"{key}: vimd - {gmx_name} = {a - b:+.3e}, z = {(a - b) / np.hypot(sa, sb):+.2f}")
     return 0
 
 
@@ -139,9 +149,9 @@ def run_both(work, src, structure, setup, args, atoms, seed):
     write_mdp(work / "nve.mdp", dt=args.dt, nsteps=steps, nstcalcenergy=10, nstenergy=10,
               nstlog=1000, comm_mode="None", tcoupl="no", pcoupl="no", continuation="no",
               **velocities, **setup["gmx"])
-    run(["gmx_d", "grompp", "-f", "nve.mdp", "-c", structure, "-p", src / "topol.top", "-o", "nve.tpr", "-maxwarn", "2"], work)
-    run(["gmx_d", "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off", "-notunepme"], work)
-    e = gmx_energy("gmx_d", "gmx_nve.edr", ["Total-Energy", "Temperature", "Constr.-rmsd"], work)
+    run([args.gmx, "grompp", "-f", "nve.mdp", "-c", structure, "-p", src / "topol.top", "-o", "nve.tpr", "-maxwarn", "2"], work)
+    run([args.gmx, "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off", "-notunepme"], work)
+    e = gmx_energy(args.gmx, "gmx_nve.edr", ["Total-Energy", "Temperature", "Constr.-rmsd"], work)
     gmx = analyse(e["time"], e["Total Energy"], atoms)
     gmx.update(constraint_rms=max(e.get("Constr. rmsd", [0.0])), temperature=np.mean(e["Temperature"]))
 
