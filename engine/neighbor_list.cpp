@@ -354,10 +354,9 @@ void NeighborList::search_pairs() {
             }
           }
       }
+      // found[hh] is in the loops' order: by shift, then by j-cluster (columns and the clusters in
+      // each in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
       for (int hh = 0; hh < 2; ++hh) {
-        std::sort(found[hh].begin(), found[hh].end(), [](const Entry& x, const Entry& y) {
-          return x.j_cluster < y.j_cluster || (x.j_cluster == y.j_cluster && x.shift < y.shift);
-        });
         const int h = 2 * a_cluster + hh;
         count[h + 1] = static_cast<int>(found[hh].size());
         owner[h] = t;

@@ -88,7 +88,7 @@ class NeighborList {
   template <class Real>
   void pack_vectors(const Coords& u, Real* x, Real* y, Real* z) const;
 
-  // Entries of i-half h: entries()[half_start()[h] .. half_start()[h + 1]).
+  // Entries of i-half h: entries()[half_start()[h] .. half_start()[h + 1]), by shift, then by j-cluster.
   const std::vector<int>& half_start() const { return half_start_; }
   const std::vector<Entry>& entries() const { return entries_; }
   const std::vector<Vec3>& shift_vectors() const { return shift_vectors_; }

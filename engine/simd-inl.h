@@ -3,7 +3,7 @@
 // the number type, and instantiated for double (reference sums, tests) and for SimdDouble (the
 // pair loops of forcefields/nonbonded_kernels-inl.h, the neighbour search's cluster-pair distances
 // in cluster_pair_kernels.cpp). Its width is the target's: 8 lanes on AVX-512, 4 on AVX2, 2 on
-// SSE4. SimdFloat, the same in single precision (up to 8 lanes), serves the mixed-precision
+// SSE4. SimdFloat, the same in single precision (up to 16 lanes), serves the mixed-precision
 // kernels. No intrinsics outside this file; Highway picks the target at run time (one choice for
 // all kernels: simd::use_target).
 //
@@ -29,15 +29,15 @@ namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 // Tags of the two arithmetic precisions: doubles at the target's full width, and floats (the
-// mixed-precision force kernel) at up to 8 lanes, so that a j-cluster of 8 atoms is one AVX2 or
-// AVX-512 (256-bit) vector of floats.
+// mixed-precision force kernel) at up to 16 lanes, two rows of 8 j atoms on AVX-512 (the pair
+// loop's layout: forcefields/pair_form-inl.h).
 template <class Real>
 struct SimdTagOf {
   using type = hn::ScalableTag<double>;
 };
 template <>
 struct SimdTagOf<float> {
-  using type = hn::CappedTag<float, 8>;
+  using type = hn::CappedTag<float, 16>;
 };
 
 // Arithmetic with doubles on either side, as the scalar kernels write it (a double operand is
@@ -121,17 +121,17 @@ template <class Real>
 HWY_INLINE SimdMaskOf<Real> operator&(SimdMaskOf<Real> a, SimdMaskOf<Real> b) {
   return {hn::And(a.m, b.m)};
 }
-// Lanes whose bit is set in the low lanes() bits of `bits`, and back.
+// Lanes whose bit is set in the low lanes() bits of `bits` (at most 16 lanes), and back.
 template <class Real>
 HWY_INLINE SimdMaskOf<Real> mask_from_bits(unsigned bits) {
-  const std::uint8_t byte = static_cast<std::uint8_t>(bits);
-  return {hn::LoadMaskBits(typename SimdVec<Real>::Tag(), &byte)};
+  const std::uint8_t bytes[8] = {static_cast<std::uint8_t>(bits), static_cast<std::uint8_t>(bits >> 8)};
+  return {hn::LoadMaskBits(typename SimdVec<Real>::Tag(), bytes)};
 }
 template <class Real>
 HWY_INLINE unsigned bits_from_mask(SimdMaskOf<Real> m) {
   std::uint8_t bytes[8] = {};
   hn::StoreMaskBits(typename SimdVec<Real>::Tag(), m.m, bytes);
-  return bytes[0];
+  return bytes[0] | static_cast<unsigned>(bytes[1]) << 8;
 }
 
 template <class Real>

@@ -185,13 +185,15 @@ inline void excluded_hessian(const EwaldRealSpace& e, const PairViewOf<Real>& d,
   ewald_excluded_hessian(e, e.prefactor * d.charge[i] * d.charge[j], r2, a, b);
 }
 
-// The i atoms' charges, times f/eps_r.
+// The i atoms' charges, times f/eps_r, per vector of rows.
 template <class Real>
 struct EwaldHalf {
-  Real q[NeighborList::kHalfSize];
+  SimdVec<Real> q[PairLayout<Real>::kRowVectors];
   HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
     const EwaldRealSpace& e = std::get<EwaldRealSpace>(d.forms);
-    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) q[ii] = static_cast<Real>(e.prefactor * d.charge[ib + ii]);
+    Real charges[NeighborList::kHalfSize];
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) charges[ii] = static_cast<Real>(e.prefactor * d.charge[ib + ii]);
+    for (int r = 0; r < PairLayout<Real>::kRowVectors; ++r) q[r] = broadcast_rows(charges, r * PairLayout<Real>::kRows);
   }
   static constexpr bool active(int) { return true; }
 };
@@ -205,12 +207,12 @@ struct PairForm<EwaldRealSpace, M> {
   template <class Real>
   static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    ewald_energy_force<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, v, g);
+    ewald_energy_force<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, v, g);
   }
   template <class Real>
   static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    ewald_hessian<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, a, b);
+    ewald_hessian<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, a, b);
   }
 };
 

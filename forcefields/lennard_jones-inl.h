@@ -80,7 +80,11 @@ struct LjHalf {
       lj[ii] = d.type_has_lj[d.type[ib + ii]] != 0;
     }
   }
-  HWY_INLINE bool active(int ii) const { return lj[ii]; }
+  HWY_INLINE bool active(int ii) const {
+    bool any = false;
+    for (int r = 0; r < PairLayout<Real>::kRows; ++r) any |= lj[ii + r];
+    return any;
+  }
 };
 
 template <VdwModifier M>
@@ -92,13 +96,13 @@ struct PairForm<LjConstants, M> {
   template <class Real>
   static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    lj_energy_force<M>(std::get<LjConstants>(d.forms), simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), p.rinv2,
+    lj_energy_force<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, jb), load_rows(hi.c12, ii, jb), p.rinv2,
                        p.r2 * p.rinv, v, g);
   }
   template <class Real>
   static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    lj_hessian<M>(std::get<LjConstants>(d.forms), simd_load(hi.c6[ii] + jb), simd_load(hi.c12[ii] + jb), p.rinv2,
+    lj_hessian<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, jb), load_rows(hi.c12, ii, jb), p.rinv2,
                   p.r2 * p.rinv, a, b);
   }
 };

@@ -1,8 +1,9 @@
 // The pair loops over the cluster-pair list, for the SIMD target being compiled: the kernels of
 // every combination of the pair forms of pair_forms.hpp, as templates on the precision. Included by
 // nonbonded_kernels_double.cpp and nonbonded_kernels_single.cpp, one per precision (two translation
-// units that compile in parallel). A j-cluster (8 atoms) is processed as 8 / lanes vectors of the
-// target's native width; the i-half's force sums stay in registers over the whole half, and each j
+// units that compile in parallel). A vector holds kJ j atoms of kRows i atoms (PairLayout: a j-cluster
+// of 8 atoms is 8 / lanes vectors where a vector is narrower, and two i rows share a vector where it
+// is 16 wide); the i-half's force sums stay in registers over the whole half, and each j
 // sub-cluster is updated once per list entry. A Highway per-target header: see engine/simd-inl.h.
 #if defined(VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_) == defined(HWY_TARGET_TOGGLE)
 #ifdef VIMD_FORCEFIELDS_NONBONDED_KERNELS_INL_H_
@@ -275,11 +276,41 @@ struct SharedSwitches<PairFormList<Vdw...>, CoulombList> {
 using Combinations = Concat<typename SharedSwitches<VdwForms, CoulombForms>::type,
                             typename SumsOf<typename SlotOf<VdwForms>::type, typename SlotOf<CoulombForms>::type>::type>;
 
+// The i-half's positions, per vector of rows, moved by −s for the run of its entries with shift s
+// (a half's entries come by shift): x_i − (x_j + s) as (x_i − s) − x_j, the shift applied once per run.
+template <class Real>
+struct ShiftedHalf {
+  static constexpr int kVectors = PairLayout<Real>::kRowVectors;
+  SimdVec<Real> x0[kVectors], y0[kVectors], z0[kVectors];  // unshifted
+  SimdVec<Real> x[kVectors], y[kVectors], z[kVectors];
+  int shift = -1;
+
+  HWY_INLINE void load(const PairPositionsOf<Real>& d, int h) {
+    const int ib = h * kH;
+    for (int r = 0; r < kVectors; ++r) {
+      x0[r] = broadcast_rows(d.x + ib, r * PairLayout<Real>::kRows);
+      y0[r] = broadcast_rows(d.y + ib, r * PairLayout<Real>::kRows);
+      z0[r] = broadcast_rows(d.z + ib, r * PairLayout<Real>::kRows);
+    }
+    shift = -1;
+  }
+  HWY_INLINE void follow(const PairPositionsOf<Real>& d, int s) {
+    if (s == shift) return;
+    shift = s;
+    const Vec3& by = d.shifts[s];
+    for (int r = 0; r < kVectors; ++r) {
+      x[r] = x0[r] - by[0];
+      y[r] = y0[r] - by[1];
+      z[r] = z0[r] - by[2];
+    }
+  }
+};
+
 // The i-half's atoms, loaded once per half. Keyed on the forms' data, not on the forms: kernels
 // whose code is the same (LJ none and potential-shift: the shift is a constant) stay one function.
 template <class FormsHalf, class Real>
 struct HalfData {
-  Real x[kH], y[kH], z[kH];
+  ShiftedHalf<Real> at;
   FormsHalf forms;
 };
 template <class Forms, class Real>
@@ -287,13 +318,8 @@ using HalfDataOf = HalfData<typename Forms::template Half<Real>, Real>;
 
 template <class Forms, class Real>
 HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Real>& hi) {
-  const int ib = h * kH;
-  for (int ii = 0; ii < kH; ++ii) {
-    hi.x[ii] = d.x[ib + ii];
-    hi.y[ii] = d.y[ib + ii];
-    hi.z[ii] = d.z[ib + ii];
-  }
-  Forms::load(d, ib, hi.forms);
+  hi.at.load(d, h);
+  Forms::load(d, h * kH, hi.forms);
 }
 
 // Forms: a combination of pair forms (Sum, SharedSwitch). Real: the precision of the pair
@@ -304,8 +330,8 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
                   double* half_coulomb, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
-  const int lanes = V::lanes();
-  const unsigned lane_bits = (1u << lanes) - 1;
+  constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
+  const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V one = V::broadcast(1.0), zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -313,25 +339,24 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
     if (e0 == e1) continue;
     HalfDataOf<Forms, Real> hi;
     load_half<Forms>(d, h, hi);
-    V fxi[kH], fyi[kH], fzi[kH];
-    for (int ii = 0; ii < kH; ++ii) fxi[ii] = fyi[ii] = fzi[ii] = zero;
+    V fxi[kH / kRows], fyi[kH / kRows], fzi[kH / kRows];
+    for (int r = 0; r < kH / kRows; ++r) fxi[r] = fyi[r] = fzi[r] = zero;
     V energy[kPairEnergies];
     for (V& e : energy) e = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      const Vec3& shift = d.shifts[entry.shift];
+      hi.at.follow(d, entry.shift);
       const std::uint32_t mask = entry.mask;
       std::uint32_t inside_bits = 0;
-      for (int js = 0; js < kC; js += lanes) {
+      for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
-        const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
-                zj = simd_load(d.z + jb) + shift[2];
+        const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
         V fxj = zero, fyj = zero, fzj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
-        for (int ii = 0; ii < kH; ++ii) {
+        for (int ii = 0; ii < kH; ii += kRows) {
           const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const V dx = V::broadcast(hi.x[ii]) - xj, dy = V::broadcast(hi.y[ii]) - yj, dz = V::broadcast(hi.z[ii]) - zj;
+          const V dx = hi.at.x[ii / kRows] - xj, dy = hi.at.y[ii / kRows] - yj, dz = hi.at.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = mask_from_bits<Real>(bits) & (r2 < cutoff2);
           if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
@@ -342,24 +367,24 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
           Forms::template energy_force<kEnergies>(d, hi.forms, ii, jb, p, inside, g, energy);
           g = keep(inside, g);
           const V gx = g * dx, gy = g * dy, gz = g * dz;
-          fxi[ii] += gx;
-          fyi[ii] += gy;
-          fzi[ii] += gz;
+          fxi[ii / kRows] += gx;
+          fyi[ii / kRows] += gy;
+          fzi[ii / kRows] += gz;
           fxj -= gx;
           fyj -= gy;
           fzj -= gz;
         }
-        simd_store(fx + jb, simd_load(fx + jb) + fxj);
-        simd_store(fy + jb, simd_load(fy + jb) + fyj);
-        simd_store(fz + jb, simd_load(fz + jb) + fzj);
+        add_j(fx + jb, fxj);
+        add_j(fy + jb, fyj);
+        add_j(fz + jb, fzj);
       }
       if (inside_masks) inside_masks[e] = inside_bits;
     }
     const int ib = h * kH;
-    for (int ii = 0; ii < kH; ++ii) {
-      fx[ib + ii] += simd_sum(fxi[ii]);
-      fy[ib + ii] += simd_sum(fyi[ii]);
-      fz[ib + ii] += simd_sum(fzi[ii]);
+    for (int ii = 0; ii < kH; ii += kRows) {
+      add_row_sums(fx + ib, ii, fxi[ii / kRows]);
+      add_row_sums(fy + ib, ii, fyi[ii / kRows]);
+      add_row_sums(fz + ib, ii, fzi[ii / kRows]);
     }
     if constexpr (kEnergies) {
       half_lj[h] = simd_sum(energy[static_cast<int>(PairEnergy::vdw)]);
@@ -375,8 +400,8 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
                     const std::uint32_t* masks, int h0, int h1, Real* ox, Real* oy, Real* oz) {
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
-  const int lanes = V::lanes();
-  const unsigned lane_bits = (1u << lanes) - 1;
+  constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
+  const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V one = V::broadcast(1.0), zero = V::zero();
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -390,23 +415,22 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
       uyi[ii] = uy[ib + ii];
       uzi[ii] = uz[ib + ii];
     }
-    V oxi[kH], oyi[kH], ozi[kH];
-    for (int ii = 0; ii < kH; ++ii) oxi[ii] = oyi[ii] = ozi[ii] = zero;
+    V oxi[kH / kRows], oyi[kH / kRows], ozi[kH / kRows];
+    for (int r = 0; r < kH / kRows; ++r) oxi[r] = oyi[r] = ozi[r] = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      const Vec3& shift = d.shifts[entry.shift];
+      hi.at.follow(d, entry.shift);
       const std::uint32_t mask = masks[e];
-      for (int js = 0; js < kC; js += lanes) {
+      for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
-        const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
-                         zj = simd_load(d.z + jb) + shift[2];
-        const V uxj = simd_load(ux + jb), uyj = simd_load(uy + jb), uzj = simd_load(uz + jb);
+        const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
+        const V uxj = load_j(ux + jb), uyj = load_j(uy + jb), uzj = load_j(uz + jb);
         V oxj = zero, oyj = zero, ozj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
-        for (int ii = 0; ii < kH; ++ii) {
+        for (int ii = 0; ii < kH; ii += kRows) {
           const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const V dx = hi.x[ii] - xj, dy = hi.y[ii] - yj, dz = hi.z[ii] - zj;
+          const V dx = hi.at.x[ii / kRows] - xj, dy = hi.at.y[ii / kRows] - yj, dz = hi.at.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = mask_from_bits<Real>(bits);
           const V r2s = select(inside, r2, one);
@@ -416,25 +440,26 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
           Forms::hessian(d, hi.forms, ii, jb, p, a, b);
           a = keep(inside, a);
           b = keep(inside, b);
-          const V dux = uxi[ii] - uxj, duy = uyi[ii] - uyj, duz = uzi[ii] - uzj;
+          const V dux = broadcast_rows(uxi, ii) - uxj, duy = broadcast_rows(uyi, ii) - uyj,
+                  duz = broadcast_rows(uzi, ii) - uzj;
           const V bp = b * (dx * dux + dy * duy + dz * duz);
           const V hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
-          oxi[ii] += hx;
-          oyi[ii] += hy;
-          ozi[ii] += hz;
+          oxi[ii / kRows] += hx;
+          oyi[ii / kRows] += hy;
+          ozi[ii / kRows] += hz;
           oxj -= hx;
           oyj -= hy;
           ozj -= hz;
         }
-        simd_store(ox + jb, simd_load(ox + jb) + oxj);
-        simd_store(oy + jb, simd_load(oy + jb) + oyj);
-        simd_store(oz + jb, simd_load(oz + jb) + ozj);
+        add_j(ox + jb, oxj);
+        add_j(oy + jb, oyj);
+        add_j(oz + jb, ozj);
       }
     }
-    for (int ii = 0; ii < kH; ++ii) {
-      ox[ib + ii] += simd_sum(oxi[ii]);
-      oy[ib + ii] += simd_sum(oyi[ii]);
-      oz[ib + ii] += simd_sum(ozi[ii]);
+    for (int ii = 0; ii < kH; ii += kRows) {
+      add_row_sums(ox + ib, ii, oxi[ii / kRows]);
+      add_row_sums(oy + ib, ii, oyi[ii / kRows]);
+      add_row_sums(oz + ib, ii, ozi[ii / kRows]);
     }
   }
 }
@@ -442,32 +467,26 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
 template <class Real>
 void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
-  const int lanes = V::lanes();
+  constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   const V range2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
-    const int ib = h * kH;
-    Real xi[kH], yi[kH], zi[kH];
-    for (int ii = 0; ii < kH; ++ii) {
-      xi[ii] = d.x[ib + ii];
-      yi[ii] = d.y[ib + ii];
-      zi[ii] = d.z[ib + ii];
-    }
+    ShiftedHalf<Real> at;
+    at.load(d, h);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       if (entry.nearest >= skip_from) {
         inside_masks[e] = 0;
         continue;
       }
-      const Vec3& shift = d.shifts[entry.shift];
+      at.follow(d, entry.shift);
       std::uint32_t inside_bits = 0;
-      for (int js = 0; js < kC; js += lanes) {
+      for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
-        const V xj = simd_load(d.x + jb) + shift[0], yj = simd_load(d.y + jb) + shift[1],
-                zj = simd_load(d.z + jb) + shift[2];
+        const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
         // Every lane, listed or not (padding and excluded pairs have finite distances too); the
         // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
-        for (int ii = 0; ii < kH; ++ii) {
-          const V dx = V::broadcast(xi[ii]) - xj, dy = V::broadcast(yi[ii]) - yj, dz = V::broadcast(zi[ii]) - zj;
+        for (int ii = 0; ii < kH; ii += kRows) {
+          const V dx = at.x[ii / kRows] - xj, dy = at.y[ii / kRows] - yj, dz = at.z[ii / kRows] - zj;
           inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
         }
       }

@@ -4,10 +4,13 @@
 // A form's -inl.h specialises PairForm<Constants, variant> for each of its variants with
 //   using Constants; static constexpr auto kVariant;
 //   template <class Real> struct Half: what the form reads of the i atoms of a half-cluster,
-//     loaded once per half by load(view, first slot); active(ii): whether row ii has the form
-//     at all (false: its terms are exact zeros and are skipped);
-//   energy_force(view, half, ii, jb, distance, v, g): per pair of i atom ii with the j atoms at
-//     slots jb.., the energy φ and g = −φ'(r)/r (the force on i is g d, d = r_i − r_j);
+//     loaded once per half by load(view, first slot); active(ii): whether the rows of a vector
+//     from row ii on (PairLayout) have the form at all (false: its terms are exact zeros and are
+//     skipped);
+//   energy_force(view, half, ii, jb, distance, v, g): per pair of the rows from i atom ii with the
+//     j atoms at slots jb.., the energy φ and g = −φ'(r)/r (the force on i is g d, d = r_i − r_j);
+//     per-row values come from load_rows and broadcast_rows (once per half where they can), per-j
+//     values from load_j;
 //   hessian(view, half, ii, jb, distance, a, b): a = φ'/r and b = (φ'' − φ'/r)/r², the pair's
 //     Hessian block being a I + b d dᵀ;
 //   optionally add_energy_force(..., v, g): as energy_force, its g added to g (when a fused
@@ -30,6 +33,81 @@ namespace HWY_NAMESPACE {
 
 template <class Constants, auto kVariant>
 struct PairForm;
+
+// The pair loop's vectors: one holds kJLanes j atoms for each of kRows consecutive i atoms (rows)
+// of a half-cluster. One row where a vector is at most a j-cluster wide; two where it is twice as
+// wide (16 floats on AVX-512, GROMACS's 2xMM layout), so that every target fills its vectors.
+template <class Real>
+struct PairLayout {
+  using Tag = typename SimdVec<Real>::Tag;
+  static constexpr int kLanes = static_cast<int>(hn::MaxLanes(Tag()));
+  static constexpr int kRows = kLanes > NeighborList::kClusterSize ? kLanes / NeighborList::kClusterSize : 1;
+  static constexpr int kJLanes = kLanes / kRows;
+  static constexpr int kRowVectors = NeighborList::kHalfSize / kRows;  // vectors per half-cluster
+  static_assert(kRows <= 2 && NeighborList::kHalfSize % kRows == 0);
+};
+
+// The two-row branches call Combine, LowerHalf and UpperHalf unqualified: found by argument-dependent
+// lookup in the targets that have them (the portable scalar target has not, and has one row).
+
+// The kJLanes values at p, the same for every row.
+template <class Real>
+HWY_INLINE SimdVec<Real> load_j(const Real* p) {
+  using L = PairLayout<Real>;
+  if constexpr (L::kRows == 1) {
+    return simd_load(p);
+  } else {
+    const hn::Half<typename L::Tag> half;
+    const auto j = hn::LoadU(half, p);
+    return {Combine(typename L::Tag(), j, j)};
+  }
+}
+// Row r of the vector: values[ii + r], on all of its lanes.
+template <class Real>
+HWY_INLINE SimdVec<Real> broadcast_rows(const Real* values, int ii) {
+  using L = PairLayout<Real>;
+  if constexpr (L::kRows == 1) {
+    return SimdVec<Real>::broadcast(values[ii]);
+  } else {
+    const hn::Half<typename L::Tag> half;
+    return {Combine(typename L::Tag(), hn::Set(half, values[ii + 1]), hn::Set(half, values[ii]))};
+  }
+}
+// Row r of the vector: rows[ii + r][jb ..], e.g. a row of a pair-parameter table.
+template <class Real>
+HWY_INLINE SimdVec<Real> load_rows(const Real* const* rows, int ii, int jb) {
+  using L = PairLayout<Real>;
+  if constexpr (L::kRows == 1) {
+    return simd_load(rows[ii] + jb);
+  } else {
+    const hn::Half<typename L::Tag> half;
+    return {Combine(typename L::Tag(), hn::LoadU(half, rows[ii + 1] + jb), hn::LoadU(half, rows[ii] + jb))};
+  }
+}
+// p[0 .. kJLanes) += the sum over the rows of x.
+template <class Real>
+HWY_INLINE void add_j(Real* p, SimdVec<Real> x) {
+  using L = PairLayout<Real>;
+  if constexpr (L::kRows == 1) {
+    simd_store(p, simd_load(p) + x);
+  } else {
+    const hn::Half<typename L::Tag> half;
+    const auto sum = hn::Add(LowerHalf(half, x.v), UpperHalf(half, x.v));
+    hn::StoreU(hn::Add(hn::LoadU(half, p), sum), half, p);
+  }
+}
+// p[ii + r] += the sum of row r of x.
+template <class Real>
+HWY_INLINE void add_row_sums(Real* p, int ii, SimdVec<Real> x) {
+  using L = PairLayout<Real>;
+  if constexpr (L::kRows == 1) {
+    p[ii] += static_cast<Real>(simd_sum(x));
+  } else {
+    const hn::Half<typename L::Tag> half;
+    p[ii] += hn::GetLane(hn::SumOfLanes(half, LowerHalf(half, x.v)));
+    p[ii + 1] += hn::GetLane(hn::SumOfLanes(half, UpperHalf(half, x.v)));
+  }
+}
 
 // The distance of a pair, in the forms' terms. Lanes that do not interact carry r2 = 1.
 template <class Real>

@@ -92,13 +92,15 @@ inline void excluded_hessian(const ReactionField& rf, const PairViewOf<Real>& d,
   rf_excluded_hessian(rf, rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
 }
 
-// The i atoms' charges, times f/eps_r.
+// The i atoms' charges, times f/eps_r, per vector of rows.
 template <class Real>
 struct ReactionFieldHalf {
-  Real q[NeighborList::kHalfSize];
+  SimdVec<Real> q[PairLayout<Real>::kRowVectors];
   HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
     const ReactionField& rf = std::get<ReactionField>(d.forms);
-    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) q[ii] = static_cast<Real>(rf.prefactor * d.charge[ib + ii]);
+    Real charges[NeighborList::kHalfSize];
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) charges[ii] = static_cast<Real>(rf.prefactor * d.charge[ib + ii]);
+    for (int r = 0; r < PairLayout<Real>::kRowVectors; ++r) q[r] = broadcast_rows(charges, r * PairLayout<Real>::kRows);
   }
   static constexpr bool active(int) { return true; }
 };
@@ -112,17 +114,17 @@ struct PairForm<ReactionField, C> {
   template <class Real>
   static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    rf_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, v, g);
+    rf_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, v, g);
   }
   template <class Real>
   static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                           const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    rf_add_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, v, g);
+    rf_add_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, v, g);
   }
   template <class Real>
   static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    rf_hessian<C>(std::get<ReactionField>(d.forms), hi.q[ii] * simd_load(d.charge + jb), p.rinv, p.r2, a, b);
+    rf_hessian<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, a, b);
   }
 };
 
