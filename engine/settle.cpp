@@ -32,15 +32,13 @@ struct SettlePending {
 };
 enum class Settle { not_applicable, already_satisfied, prepared };
 
-// The outcome of a triangle whose apex→h1 and apex→h2 bonds are ab and ac; false where a side
-// deviates by more than the tolerance (also NaN: a displacement too large for the triangle).
-bool settle_outcome(const Layout& L, const Layout::Cluster& cl, const Vec3& ab, const Vec3& ac, int iterations,
+// The outcome of a triangle whose sides apex–h1, apex–h2 and base deviate by `deviation` (relative);
+// false where one deviates by more than the tolerance (also NaN: a displacement too large for the
+// triangle).
+bool settle_outcome(const Layout& L, const Layout::Cluster& cl, const double deviation[3], int iterations,
                     double tolerance, ClusterOutcome& out) {
   const Layout::Triangle& t = L.triangles[cl.slot];
   const int position[3] = {t.ab, t.ac, t.bc};
-  const double deviation[3] = {relative_deviation(ab.squaredNorm(), t.d_side),
-                               relative_deviation(ac.squaredNorm(), t.d_side),
-                               relative_deviation((ac - ab).squaredNorm(), t.d_base)};
   out = ClusterOutcome{};
   out.iterations = iterations;
   out.worst = cl.begin + position[0];
@@ -69,16 +67,19 @@ Settle settle_prepare(const Layout& L, const Layout::Cluster& cl, const Coords& 
   const Vec3 c1_apex = q.col(t.h2) - pending.apex1 + pending.image_c;
   // Already on the constraints: left exactly as it is, as Newton leaves it.
   if (within(b1_apex.squaredNorm(), t.d_side, tolerance) && within(c1_apex.squaredNorm(), t.d_side, tolerance) &&
-      within((c1_apex - b1_apex).squaredNorm(), t.d_base, tolerance) &&
-      settle_outcome(L, cl, b1_apex, c1_apex, 0, tolerance, out))
-    return Settle::already_satisfied;
+      within((c1_apex - b1_apex).squaredNorm(), t.d_base, tolerance)) {
+    const double deviation[3] = {relative_deviation(b1_apex.squaredNorm(), t.d_side),
+                                 relative_deviation(c1_apex.squaredNorm(), t.d_side),
+                                 relative_deviation((c1_apex - b1_apex).squaredNorm(), t.d_base)};
+    if (settle_outcome(L, cl, deviation, 0, tolerance, out)) return Settle::already_satisfied;
+  }
   const double base_weight = w[t.apex] / (w[t.h1] + 2 * w[t.apex]);  // m_H / M
   const double rc = 0.5 * t.d_base, height = std::sqrt(t.d_side * t.d_side - rc * rc);
   const double ra = 2 * base_weight * height;
   const double fields[kSettleInFields] = {b0.x(),      b0.y(),      b0.z(),      c0.x(),      c0.y(),
                                           c0.z(),      b1_apex.x(), b1_apex.y(), b1_apex.z(), c1_apex.x(),
                                           c1_apex.y(), c1_apex.z(), base_weight, ra,          height - ra,
-                                          rc};
+                                          rc,          t.d_side,    t.d_base};
   for (int f = 0; f < kSettleInFields; ++f) in[f * kSettleBatch + k] = fields[f];
   return Settle::prepared;
 }
@@ -89,8 +90,10 @@ bool settle_finish(const Layout& L, const Layout::Cluster& cl, const SettlePendi
   auto at = [&](int x) {
     return Vec3(result[x * kSettleBatch + k], result[(x + 1) * kSettleBatch + k], result[(x + 2) * kSettleBatch + k]);
   };
+  const double deviation[3] = {result[kDeviationAB * kSettleBatch + k], result[kDeviationAC * kSettleBatch + k],
+                               result[kDeviationBC * kSettleBatch + k]};
+  if (!settle_outcome(L, cl, deviation, 1, tolerance, out)) return false;
   const Vec3 a3 = at(kAx), b3 = at(kBx), c3 = at(kCx);
-  if (!settle_outcome(L, cl, b3 - a3, c3 - a3, 1, tolerance, out)) return false;
   q.col(t.apex) = pending.apex1 + a3;
   q.col(t.h1) = pending.apex1 + b3 - pending.image_b;
   q.col(t.h2) = pending.apex1 + c3 - pending.image_c;

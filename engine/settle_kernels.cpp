@@ -69,6 +69,11 @@ void settle_batch(int count, const double* in, double* out) {
       simd_store(out + (3 * a + 1) * kSettleBatch + k, result[a]->y);
       simd_store(out + (3 * a + 2) * kSettleBatch + k, result[a]->z);
     }
+    const V side = field(kSide, k), base = field(kBase, k);
+    auto deviation = [&](const V3& r, V length) { return simd_abs(simd_sqrt(dot(r, r)) - length) / length; };
+    simd_store(out + kDeviationAB * kSettleBatch + k, deviation(b3 - a3, side));
+    simd_store(out + kDeviationAC * kSettleBatch + k, deviation(c3 - a3, side));
+    simd_store(out + kDeviationBC * kSettleBatch + k, deviation(c3 - b3, base));
   }
 }
 

@@ -7,12 +7,14 @@ namespace vimd {
 // Structure of arrays: field f of molecule k at [f * kSettleBatch + k].
 inline constexpr int kSettleBatch = 64;
 // In, per molecule, in the apex-centred frame: the reference bonds apex→h1 (b0) and apex→h2 (c0),
-// the unconstrained bonds (b1, c1), the mass fraction m_H / M of each base atom, and the body
-// frame's apex height ra, base depth rb and half base rc.
+// the unconstrained bonds (b1, c1), the mass fraction m_H / M of each base atom, the body frame's
+// apex height ra, base depth rb and half base rc, and the side and base lengths.
 enum SettleIn { kB0x, kB0y, kB0z, kC0x, kC0y, kC0z, kB1x, kB1y, kB1z, kC1x, kC1y, kC1z, kBaseWeight, kRa, kRb, kRc,
-                kSettleInFields };
-// Out: the constrained positions of apex, h1 and h2 relative to the unconstrained apex.
-enum SettleOut { kAx, kAy, kAz, kBx, kBy, kBz, kCx, kCy, kCz, kSettleOutFields };
+                kSide, kBase, kSettleInFields };
+// Out: the constrained positions of apex, h1 and h2 relative to the unconstrained apex, and the
+// relative deviations of their sides apex–h1, apex–h2 and base (NaN where the rotation failed).
+enum SettleOut { kAx, kAy, kAz, kBx, kBy, kBz, kCx, kCy, kCz, kDeviationAB, kDeviationAC, kDeviationBC,
+                 kSettleOutFields };
 using SettleKernel = void (*)(int count, const double* in, double* out);
 
 // The velocity projection of a batch of rigid 3-site molecules (constraints a = 0, 1, 2), in the

@@ -203,6 +203,10 @@ template <class Real>
 HWY_INLINE SimdVec<Real> simd_sqrt(SimdVec<Real> x) {
   return {hn::Sqrt(x.v)};
 }
+template <class Real>
+HWY_INLINE SimdVec<Real> simd_abs(SimdVec<Real> x) {
+  return {hn::Abs(x.v)};
+}
 // e^x, within 1 ulp (Highway's contrib/math).
 template <class Real>
 HWY_INLINE SimdVec<Real> simd_exp(SimdVec<Real> x) {

@@ -88,7 +88,8 @@ HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T&
 template <class V>
 HWY_INLINE V ewald_rational(V z, const double (&num)[6], const double (&den)[7], const double (&num_double)[11],
                             const double (&den_double)[11]) {
-  if constexpr (std::is_same_v<V, SimdVec<double>>) return ewald_polynomial(z, num_double) / ewald_polynomial(z, den_double);
+  if constexpr (std::is_same_v<V, SimdVec<double>>)
+    return ewald_polynomial(z, num_double) / ewald_polynomial(z, den_double);
   return ewald_polynomial(z, num) / ewald_polynomial(z, den);
 }
 template <class V>
@@ -192,7 +193,8 @@ struct EwaldHalf {
   HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
     const EwaldRealSpace& e = std::get<EwaldRealSpace>(d.forms);
     Real charges[NeighborList::kHalfSize];
-    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) charges[ii] = static_cast<Real>(e.prefactor * d.charge[ib + ii]);
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
+      charges[ii] = static_cast<Real>(e.prefactor * d.charge[ib + ii]);
     for (int r = 0; r < PairLayout<Real>::kRowVectors; ++r) q[r] = broadcast_rows(charges, r * PairLayout<Real>::kRows);
   }
   static constexpr bool active(int) { return true; }
@@ -205,14 +207,16 @@ struct PairForm<EwaldRealSpace, M> {
   template <class Real>
   using Half = EwaldHalf<Real>;
   template <class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    ewald_energy_force<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, v, g);
+    ewald_energy_force<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv,
+                          p.r2, v, g);
   }
   template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    ewald_hessian<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, a, b);
+    ewald_hessian<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv, p.r2, a,
+                     b);
   }
 };
 

@@ -94,15 +94,15 @@ struct PairForm<LjConstants, M> {
   template <class Real>
   using Half = LjHalf<Real>;
   template <class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    lj_energy_force<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, jb), load_rows(hi.c12, ii, jb), p.rinv2,
-                       p.r2 * p.rinv, v, g);
+    lj_energy_force<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, j.slot), load_rows(hi.c12, ii, j.slot),
+                       p.rinv2, p.r2 * p.rinv, v, g);
   }
   template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    lj_hessian<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, jb), load_rows(hi.c12, ii, jb), p.rinv2,
+    lj_hessian<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, j.slot), load_rows(hi.c12, ii, j.slot), p.rinv2,
                   p.r2 * p.rinv, a, b);
   }
 };

@@ -81,18 +81,18 @@ struct Sum {
   }
 
   template <bool kEnergies, class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                       const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
                                       SimdVec<Real>* e) {
     g = SimdVec<Real>::zero();
-    add_energy_force<0, kEnergies>(d, hi, ii, jb, p, inside, g, e);
+    add_energy_force<0, kEnergies>(d, hi, ii, j, p, inside, g, e);
   }
 
   template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
     a = b = SimdVec<Real>::zero();
-    add_hessian<0>(d, hi, ii, jb, p, a, b);
+    add_hessian<0>(d, hi, ii, j, p, a, b);
   }
 
  private:
@@ -106,46 +106,46 @@ struct Sum {
   }
 
   template <std::size_t I, bool kEnergies, class Real>
-  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
-                                          const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
-                                          SimdVec<Real>* e) {
+  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii,
+                                          const JBlock<Real>& j, const PairDistance<Real>& p, SimdMaskOf<Real> inside,
+                                          SimdVec<Real>& g, SimdVec<Real>* e) {
     if constexpr (I < sizeof...(Form)) {
       using F = Nth<I>;
       const auto& half = std::get<I>(hi);
       if (half.active(ii)) {
         SimdVec<Real> v;
         if constexpr (I == 0) {
-          F::energy_force(d, half, ii, jb, p, v, g);
-        } else if constexpr (requires { F::add_energy_force(d, half, ii, jb, p, v, g); }) {
-          F::add_energy_force(d, half, ii, jb, p, v, g);
+          F::energy_force(d, half, ii, j, p, v, g);
+        } else if constexpr (requires { F::add_energy_force(d, half, ii, j, p, v, g); }) {
+          F::add_energy_force(d, half, ii, j, p, v, g);
         } else {
           SimdVec<Real> gf;
-          F::energy_force(d, half, ii, jb, p, v, gf);
+          F::energy_force(d, half, ii, j, p, v, gf);
           g += gf;
         }
         if constexpr (kEnergies) e[static_cast<int>(F::Constants::kEnergy)] += keep(inside, v);
       }
-      add_energy_force<I + 1, kEnergies>(d, hi, ii, jb, p, inside, g, e);
+      add_energy_force<I + 1, kEnergies>(d, hi, ii, j, p, inside, g, e);
     }
   }
 
   template <std::size_t I, class Real>
-  static HWY_INLINE void add_hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void add_hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                      const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
     if constexpr (I < sizeof...(Form)) {
       using F = Nth<I>;
       const auto& half = std::get<I>(hi);
       if (half.active(ii)) {
         if constexpr (I == 0) {
-          F::hessian(d, half, ii, jb, p, a, b);
+          F::hessian(d, half, ii, j, p, a, b);
         } else {
           SimdVec<Real> af, bf;
-          F::hessian(d, half, ii, jb, p, af, bf);
+          F::hessian(d, half, ii, j, p, af, bf);
           a += af;
           b += bf;
         }
       }
-      add_hessian<I + 1>(d, hi, ii, jb, p, a, b);
+      add_hessian<I + 1>(d, hi, ii, j, p, a, b);
     }
   }
 };
@@ -174,16 +174,16 @@ struct SharedSwitch {
   }
 
   template <bool kEnergies, class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                       const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
                                       SimdVec<Real>* e) {
     using V = SimdVec<Real>;
     const V r = p.r2 * p.rinv;
     V v = V::zero();
     g = V::zero();
-    if (std::get<0>(hi).active(ii)) A::energy_force(d, std::get<0>(hi), ii, jb, p, v, g);
+    if (std::get<0>(hi).active(ii)) A::energy_force(d, std::get<0>(hi), ii, j, p, v, g);
     V vb, gb, s, ds;
-    B::energy_force(d, std::get<1>(hi), ii, jb, p, vb, gb);
+    B::energy_force(d, std::get<1>(hi), ii, j, p, vb, gb);
     switch_value_slope(switch_of(d), r, s, ds);
     apply_switch_factors(s, ds, p.rinv, v, g);
     apply_switch_factors(s, ds, p.rinv, vb, gb);
@@ -196,17 +196,17 @@ struct SharedSwitch {
 
   // The coefficients of U = U_A + U_B unswitched, then of U·S.
   template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
     using V = SimdVec<Real>;
     const V r = p.r2 * p.rinv;
     V u, unused;
-    B::hessian(d, std::get<1>(hi), ii, jb, p, a, b);
-    B::energy_force(d, std::get<1>(hi), ii, jb, p, u, unused);
+    B::hessian(d, std::get<1>(hi), ii, j, p, a, b);
+    B::energy_force(d, std::get<1>(hi), ii, j, p, u, unused);
     if (std::get<0>(hi).active(ii)) {
       V a_a, b_a, u_a;
-      A::hessian(d, std::get<0>(hi), ii, jb, p, a_a, b_a);
-      A::energy_force(d, std::get<0>(hi), ii, jb, p, u_a, unused);
+      A::hessian(d, std::get<0>(hi), ii, j, p, a_a, b_a);
+      A::energy_force(d, std::get<0>(hi), ii, j, p, u_a, unused);
       a += a_a;
       b += b_a;
       u += u_a;
@@ -273,8 +273,9 @@ struct SharedSwitches<PairFormList<Vdw...>, CoulombList> {
   using type = Concat<typename SharedSwitchesWith<Vdw, CoulombList>::type...>;
 };
 
-using Combinations = Concat<typename SharedSwitches<VdwForms, CoulombForms>::type,
-                            typename SumsOf<typename SlotOf<VdwForms>::type, typename SlotOf<CoulombForms>::type>::type>;
+using Combinations =
+    Concat<typename SharedSwitches<VdwForms, CoulombForms>::type,
+           typename SumsOf<typename SlotOf<VdwForms>::type, typename SlotOf<CoulombForms>::type>::type>;
 
 // The i-half's positions, per vector of rows, moved by −s for the run of its entries with shift s
 // (a half's entries come by shift): x_i − (x_j + s) as (x_i − s) − x_j, the shift applied once per run.
@@ -326,8 +327,10 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Re
 // arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched).
 template <class Forms, class Real, bool kEnergies>
-void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
+void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
                   double* half_coulomb, std::uint32_t* inside_masks) {
+  // A local copy: no store in the loop can change it, so the forms' constants are read before it.
+  const PairViewOf<Real> d = view;
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
@@ -351,6 +354,7 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
+        const JBlock<Real> j{jb, load_j(d.charge + jb)};
         V fxj = zero, fyj = zero, fzj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ii += kRows) {
@@ -364,7 +368,7 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
           const V rinv = simd_rsqrt(r2s);
           const PairDistance<Real> p{r2s, rinv, rinv * rinv};
           V g;
-          Forms::template energy_force<kEnergies>(d, hi.forms, ii, jb, p, inside, g, energy);
+          Forms::template energy_force<kEnergies>(d, hi.forms, ii, j, p, inside, g, energy);
           g = keep(inside, g);
           const V gx = g * dx, gy = g * dy, gz = g * dz;
           fxi[ii / kRows] += gx;
@@ -396,8 +400,9 @@ void force_halves(const PairViewOf<Real>& d, int h0, int h1, Real* fx, Real* fy,
 // Per pair a u_ij + b (d·u_ij) d, for exactly the pairs the masks select (no cut-off test here).
 // Forms, Real: as in force_halves.
 template <class Forms, class Real>
-void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, const Real* uz,
+void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy, const Real* uz,
                     const std::uint32_t* masks, int h0, int h1, Real* ox, Real* oy, Real* oz) {
+  const PairViewOf<Real> d = view;  // as in force_halves
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
@@ -424,6 +429,7 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
+        const JBlock<Real> j{jb, load_j(d.charge + jb)};
         const V uxj = load_j(ux + jb), uyj = load_j(uy + jb), uzj = load_j(uz + jb);
         V oxj = zero, oyj = zero, ozj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
@@ -437,7 +443,7 @@ void hessian_halves(const PairViewOf<Real>& d, const Real* ux, const Real* uy, c
           const V rinv = simd_rsqrt(r2s);
           const PairDistance<Real> p{r2s, rinv, rinv * rinv};
           V a, b;
-          Forms::hessian(d, hi.forms, ii, jb, p, a, b);
+          Forms::hessian(d, hi.forms, ii, j, p, a, b);
           a = keep(inside, a);
           b = keep(inside, b);
           const V dux = broadcast_rows(uxi, ii) - uxj, duy = broadcast_rows(uyi, ii) - uyj,

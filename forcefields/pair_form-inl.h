@@ -7,11 +7,11 @@
 //     loaded once per half by load(view, first slot); active(ii): whether the rows of a vector
 //     from row ii on (PairLayout) have the form at all (false: its terms are exact zeros and are
 //     skipped);
-//   energy_force(view, half, ii, jb, distance, v, g): per pair of the rows from i atom ii with the
-//     j atoms at slots jb.., the energy φ and g = −φ'(r)/r (the force on i is g d, d = r_i − r_j);
-//     per-row values come from load_rows and broadcast_rows (once per half where they can), per-j
-//     values from load_j;
-//   hessian(view, half, ii, jb, distance, a, b): a = φ'/r and b = (φ'' − φ'/r)/r², the pair's
+//   energy_force(view, half, ii, j, distance, v, g): per pair of the rows from i atom ii with the
+//     j atoms of JBlock j (slots j.slot..), the energy φ and g = −φ'(r)/r (the force on i is g d,
+//     d = r_i − r_j); per-row values come from load_rows and broadcast_rows (once per half where
+//     they can), per-j values from the JBlock or load_j;
+//   hessian(view, half, ii, j, distance, a, b): a = φ'/r and b = (φ'' − φ'/r)/r², the pair's
 //     Hessian block being a I + b d dᵀ;
 //   optionally add_energy_force(..., v, g): as energy_force, its g added to g (when a fused
 //     multiply-add makes that cheaper than a separate sum).
@@ -108,6 +108,14 @@ HWY_INLINE void add_row_sums(Real* p, int ii, SimdVec<Real> x) {
     p[ii + 1] += hn::GetLane(hn::SumOfLanes(half, UpperHalf(half, x.v)));
   }
 }
+
+// The j atoms of a vector: its first slot, and what every form of the charges reads of them, loaded
+// once for all rows of a list entry.
+template <class Real>
+struct JBlock {
+  int slot;
+  SimdVec<Real> charge;
+};
 
 // The distance of a pair, in the forms' terms. Lanes that do not interact carry r2 = 1.
 template <class Real>

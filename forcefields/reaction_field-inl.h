@@ -99,7 +99,8 @@ struct ReactionFieldHalf {
   HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
     const ReactionField& rf = std::get<ReactionField>(d.forms);
     Real charges[NeighborList::kHalfSize];
-    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) charges[ii] = static_cast<Real>(rf.prefactor * d.charge[ib + ii]);
+    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
+      charges[ii] = static_cast<Real>(rf.prefactor * d.charge[ib + ii]);
     for (int r = 0; r < PairLayout<Real>::kRowVectors; ++r) q[r] = broadcast_rows(charges, r * PairLayout<Real>::kRows);
   }
   static constexpr bool active(int) { return true; }
@@ -112,19 +113,22 @@ struct PairForm<ReactionField, C> {
   template <class Real>
   using Half = ReactionFieldHalf<Real>;
   template <class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    rf_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, v, g);
+    rf_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv, p.r2, v,
+                       g);
   }
   template <class Real>
-  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
-                                          const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    rf_add_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, v, g);
+  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii,
+                                          const JBlock<Real>& j, const PairDistance<Real>& p, SimdVec<Real>& v,
+                                          SimdVec<Real>& g) {
+    rf_add_energy_force<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv,
+                           p.r2, v, g);
   }
   template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, int jb,
+  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    rf_hessian<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * load_j(d.charge + jb), p.rinv, p.r2, a, b);
+    rf_hessian<C>(std::get<ReactionField>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv, p.r2, a, b);
   }
 };
 
