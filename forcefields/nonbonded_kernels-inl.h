@@ -311,7 +311,7 @@ struct ShiftedHalf {
 // whose code is the same (LJ none and potential-shift: the shift is a constant) stay one function.
 template <class FormsHalf, class Real>
 struct HalfData {
-  ShiftedHalf<Real> at;
+  ShiftedHalf<Real> positions;
   FormsHalf forms;
 };
 template <class Forms, class Real>
@@ -319,7 +319,7 @@ using HalfDataOf = HalfData<typename Forms::template Half<Real>, Real>;
 
 template <class Forms, class Real>
 HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Real>& hi) {
-  hi.at.load(d, h);
+  hi.positions.load(d, h);
   Forms::load(d, h * kH, hi.forms);
 }
 
@@ -334,6 +334,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
+  constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
   const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V one = V::broadcast(1.0), zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
@@ -342,13 +343,13 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
     if (e0 == e1) continue;
     HalfDataOf<Forms, Real> hi;
     load_half<Forms>(d, h, hi);
-    V fxi[kH / kRows], fyi[kH / kRows], fzi[kH / kRows];
-    for (int r = 0; r < kH / kRows; ++r) fxi[r] = fyi[r] = fzi[r] = zero;
+    V fxi[kRowVectors], fyi[kRowVectors], fzi[kRowVectors];
+    for (int r = 0; r < kRowVectors; ++r) fxi[r] = fyi[r] = fzi[r] = zero;
     V energy[kPairEnergies];
     for (V& e : energy) e = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      hi.at.follow(d, entry.shift);
+      hi.positions.follow(d, entry.shift);
       const std::uint32_t mask = entry.mask;
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {
@@ -360,7 +361,8 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
         for (int ii = 0; ii < kH; ii += kRows) {
           const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const V dx = hi.at.x[ii / kRows] - xj, dy = hi.at.y[ii / kRows] - yj, dz = hi.at.z[ii / kRows] - zj;
+          const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
+                  dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = mask_from_bits<Real>(bits) & (r2 < cutoff2);
           if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
@@ -406,6 +408,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
+  constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
   const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V one = V::broadcast(1.0), zero = V::zero();
   for (int h = h0; h < h1; ++h) {
@@ -420,11 +423,11 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
       uyi[ii] = uy[ib + ii];
       uzi[ii] = uz[ib + ii];
     }
-    V oxi[kH / kRows], oyi[kH / kRows], ozi[kH / kRows];
-    for (int r = 0; r < kH / kRows; ++r) oxi[r] = oyi[r] = ozi[r] = zero;
+    V oxi[kRowVectors], oyi[kRowVectors], ozi[kRowVectors];
+    for (int r = 0; r < kRowVectors; ++r) oxi[r] = oyi[r] = ozi[r] = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      hi.at.follow(d, entry.shift);
+      hi.positions.follow(d, entry.shift);
       const std::uint32_t mask = masks[e];
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
@@ -436,7 +439,8 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
         for (int ii = 0; ii < kH; ii += kRows) {
           const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
           if (bits == 0) continue;
-          const V dx = hi.at.x[ii / kRows] - xj, dy = hi.at.y[ii / kRows] - yj, dz = hi.at.z[ii / kRows] - zj;
+          const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
+                  dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = mask_from_bits<Real>(bits);
           const V r2s = select(inside, r2, one);
@@ -476,15 +480,15 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   const V range2 = V::broadcast(d.cutoff2);
   for (int h = h0; h < h1; ++h) {
-    ShiftedHalf<Real> at;
-    at.load(d, h);
+    ShiftedHalf<Real> positions;
+    positions.load(d, h);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       if (entry.nearest >= skip_from) {
         inside_masks[e] = 0;
         continue;
       }
-      at.follow(d, entry.shift);
+      positions.follow(d, entry.shift);
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster * kC + js;
@@ -492,7 +496,8 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
         // Every lane, listed or not (padding and excluded pairs have finite distances too); the
         // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
         for (int ii = 0; ii < kH; ii += kRows) {
-          const V dx = at.x[ii / kRows] - xj, dy = at.y[ii / kRows] - yj, dz = at.z[ii / kRows] - zj;
+          const V dx = positions.x[ii / kRows] - xj, dy = positions.y[ii / kRows] - yj,
+                  dz = positions.z[ii / kRows] - zj;
           inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
         }
       }
