@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -17,6 +18,13 @@ namespace vimd {
 namespace {
 
 constexpr int kCluster = NeighborList::kClusterSize;
+
+// The largest float below x ≥ 0 (0 for 0): std::nextafter(float(x), 0.f) without the library call
+// (the float of x is within half an ulp of it; one ulp less is below).
+inline float float_below(double x) {
+  const float f = static_cast<float>(x);
+  return f > 0 ? std::bit_cast<float>(std::bit_cast<std::uint32_t>(f) - 1) : 0.0f;
+}
 // Below this many atoms the O(N) loops run on one thread: starting a team costs more than the work
 // (small systems are evaluated very often by the variational integrators).
 constexpr int kParallelAtoms = 4096;
@@ -263,8 +271,7 @@ void NeighborList::pair_masks(ClusterPairKernel kernel, int i_cluster, int j_clu
       kernel(slot_wrapped_[0].data(), slot_wrapped_[1].data(), slot_wrapped_[2].data(), i_cluster * kCluster,
              j_cluster * kCluster, shift.data(), range2, nearest2);
   // Rounded down to float: a pruning may then skip an entry for good only where it truly is far.
-  for (int hh = 0; hh < 2; ++hh)
-    nearest[hh] = std::nextafter(static_cast<float>(std::sqrt(nearest2[hh])), 0.0f);
+  for (int hh = 0; hh < 2; ++hh) nearest[hh] = float_below(std::sqrt(nearest2[hh]));
   // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
   // its own image.
   constexpr std::uint32_t kRowsOf = 0x01010101u;  // one byte per i row

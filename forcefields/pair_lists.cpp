@@ -106,7 +106,10 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
       else
         kernel(view, h0, h1, skip_from, narrow_masks_.data());
       int kept = 0;
-      for (int e = from.half_start[h0]; e < from.half_start[h1]; ++e) kept += narrow_masks_[e] != 0;
+      for (int h = h0; h < h1; ++h) {
+        for (int e = from.half_start[h]; e < from.half_start[h + 1]; ++e) kept += narrow_masks_[e] != 0;
+        to.half_start[h + 1] = kept;  // within the chunk, until its offset is known
+      }
       chunk_kept[h0 / kHalfChunk + 1] = kept;
     });
 #pragma omp barrier
@@ -116,15 +119,17 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
       to.entries.resize(chunk_kept.back());
     }
     for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
-      int out = chunk_kept[h0 / kHalfChunk];
-      for (int h = h0; h < h1; ++h) {
-        for (int e = from.half_start[h]; e < from.half_start[h + 1]; ++e)
-          if (narrow_masks_[e] != 0) {
-            to.entries[out] = from.entries[e];
-            to.entries[out++].mask = narrow_masks_[e];
-          }
-        to.half_start[h + 1] = out;
+      const int offset = chunk_kept[h0 / kHalfChunk], end = chunk_kept[h0 / kHalfChunk + 1];
+      // Without a branch (which entries stay is unpredictable): every entry is written, and the
+      // next one overwrites it unless it stays; the loop ends with the chunk's last kept entry, so
+      // the writes stay inside the chunk's place.
+      int out = offset;
+      for (int e = from.half_start[h0]; out < end; ++e) {
+        to.entries[out] = from.entries[e];
+        to.entries[out].mask = narrow_masks_[e];
+        out += narrow_masks_[e] != 0;
       }
+      for (int h = h0; h < h1; ++h) to.half_start[h + 1] += offset;
     });
   }
   to.id = ++changes_;
