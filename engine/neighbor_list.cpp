@@ -301,7 +301,8 @@ void NeighborList::search_pairs() {
   // list is assembled in half order afterwards, so it does not depend on the thread count.
   std::vector<int> count(n_halves + 1, 0);
   std::vector<int> owner(n_halves), offset(n_halves);
-  std::vector<std::vector<Entry>> per_thread(omp_get_max_threads());
+  std::vector<std::vector<Entry>>& per_thread = search_buffers_;  // kept: no regrowing at every search
+  per_thread.resize(omp_get_max_threads());
   const ClusterPairKernel kernel = simd::cluster_pair_kernel();
   const BoxBatchKernel box_batch = simd::box_batch_kernel();
   const double* const lo[3] = {cluster_lo_[0].data(), cluster_lo_[1].data(), cluster_lo_[2].data()};
@@ -375,6 +376,7 @@ void NeighborList::search_pairs() {
   half_start_.assign(n_halves + 1, 0);
   std::partial_sum(count.begin(), count.end(), half_start_.begin());
   entries_.resize(half_start_.back());
+#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelSearchAtoms)
   for (int h = 0; h < n_halves; ++h)
     std::copy_n(per_thread[owner[h]].begin() + offset[h], count[h + 1], entries_.begin() + half_start_[h]);
 }

@@ -147,6 +147,7 @@ class NeighborList {
   int zero_shift_ = 0;
   std::vector<int> half_start_;
   std::vector<Entry> entries_;
+  std::vector<std::vector<Entry>> search_buffers_;  // per thread: its entries before they are put in half order
   std::vector<ExcludedPair> excluded_pairs_;
 };
 
