@@ -62,17 +62,9 @@ constexpr double kAbsurdPosition = 1e6;  // nm
 // Per-atom loops of the run loop go parallel from this many atoms (below, a team costs more).
 constexpr int kParallelCheckAtoms = 256;
 
-// dst = src for coordinates of the same shape, atoms in parallel.
-void parallel_copy(const Coords& src, Coords& dst) {
-  dst.resize(3, src.cols());
-  const int n = static_cast<int>(src.cols());
-#pragma omp parallel for schedule(static) if (n >= kParallelCheckAtoms)
-  for (int i = 0; i < n; ++i) dst.col(i) = src.col(i);
-}
-
 }  // namespace
 
-void Simulation::check_sane(const State& state) const {
+void Simulation::check_sane(const State& state, State* copy) const {
   const System& system = problem_.system;
   std::string atoms;
   int count = 0;
@@ -80,12 +72,20 @@ void Simulation::check_sane(const State& state) const {
   // Written so that a NaN or infinite component fails too; no square root (this runs every step).
   auto bad = [](const Coords& c, int i, double limit) { return !(c.col(i).squaredNorm() <= limit * limit); };
   const int n = system.n_atoms();
-  // A parallel look first; the serial pass below, which names the atoms, runs only on a find.
+  if (copy) {
+    copy->q.resize(3, n);
+    copy->v.resize(3, n);
+    copy->step = state.step, copy->time = state.time;
+  }
+  // A parallel look first (copying as it reads); the serial pass below, which names the atoms,
+  // runs only on a find.
   bool any_bad = false;
 #pragma omp parallel for schedule(static) reduction(|| : any_bad) if (n >= kParallelCheckAtoms)
-  for (int i = 0; i < n; ++i)
+  for (int i = 0; i < n; ++i) {
     any_bad = any_bad || bad(state.q, i, kAbsurdPosition) || bad(state.v, i, kAbsurdVelocity) ||
               bad(state.f, i, kAbsurdForce);
+    if (copy) copy->q.col(i) = state.q.col(i), copy->v.col(i) = state.v.col(i);
+  }
   for (int i = 0; any_bad && i < n; ++i) {
     const char* what = bad(state.q, i, kAbsurdPosition)   ? "position"
                        : bad(state.v, i, kAbsurdVelocity) ? "velocity"
@@ -210,12 +210,11 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
   if (info.start_step == info.first_step) notify(true);
 
   auto last_checkpoint = std::chrono::steady_clock::now();
-  State last_good;
+  State last_good, next_good;  // the state before the step under way; the one after it while checked
   try {
+    last_good.q = state.q, last_good.v = state.v;
+    last_good.step = state.step, last_good.time = state.time;
     while (state.step < info.last_step) {
-      parallel_copy(state.q, last_good.q);
-      parallel_copy(state.v, last_good.v);
-      last_good.step = state.step, last_good.time = state.time;
       problem_.energies_due = energies_due_at(state.step + 1);
       report = integrator_.step(problem_, state);
       // Integrators move the atoms; the sites follow here, once, for output and checkpoints.
@@ -223,7 +222,8 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
       ++state.step;
       state.time = start_time_ + (state.step - info.first_step) * dt_;
       base.solver_iterations += report.iterations;
-      check_sane(state);
+      check_sane(state, &next_good);
+      std::swap(last_good, next_good);
       notify(state.step == info.last_step || report.finished);
       if (report.finished) break;  // a minimiser converged
       if (checkpoints_.file.empty()) continue;

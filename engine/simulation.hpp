@@ -108,8 +108,9 @@ class Simulation {
   Sample sample(const State& state, const StepReport& report) const;
   RunTotals loop(State& state, RunInfo& info, RunTotals totals);
   void write_checkpoint_now(const State& state, const RunInfo& info, const RunTotals& totals);
-  // InputError or BlowUpError naming the atoms if the state is not fit to be written.
-  void check_sane(const State& state) const;
+  // InputError or BlowUpError naming the atoms if the state is not fit to be written; else, given
+  // `copy`, its q, v, step and time are the state's (copied in the same pass).
+  void check_sane(const State& state, State* copy = nullptr) const;
 
   Problem& problem_;
   Integrator& integrator_;

@@ -28,12 +28,7 @@ void Rattle::sub_step(Problem& problem, State& state, double h, bool energies, S
   const Constraints& constraints = problem.constraints;
   const Eigen::VectorXd& inverse_mass = problem.inverse_mass;
 
-  kick(inverse_mass, state.f, 0.5 * h, state.v);
-  q_start_.resize(3, state.q.cols());
-  for_each_atom(static_cast<int>(state.q.cols()), [&](int i) {
-    q_start_.col(i) = state.q.col(i);
-    state.q.col(i) += h * state.v.col(i);
-  });
+  kick_drift(inverse_mass, state.f, 0.5 * h, h, state.v, state.q, &q_start_);
   if (!constraints.empty()) {
     double residual = 0;
     report.iterations += constraints.solve_positions(q_start_, state.q, inverse_mass, tolerance_, state.step + 1,

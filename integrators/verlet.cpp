@@ -15,6 +15,16 @@ void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords
   for_each_atom(static_cast<int>(v.cols()), [&](int i) { v.col(i) += (h * inverse_mass[i]) * f.col(i); });
 }
 
+void kick_drift(const Eigen::VectorXd& inverse_mass, const Coords& f, double h_kick, double h_drift, Coords& v,
+                Coords& q, Coords* q_before) {
+  if (q_before) q_before->resize(3, q.cols());
+  for_each_atom(static_cast<int>(v.cols()), [&](int i) {
+    v.col(i) += (h_kick * inverse_mass[i]) * f.col(i);
+    if (q_before) q_before->col(i) = q.col(i);
+    q.col(i) += h_drift * v.col(i);
+  });
+}
+
 void evaluate_forces(Problem& problem, State& state, Forces& scratch, bool energies) {
   if (energies)
     problem.force_field.compute(state.q, scratch);
@@ -71,8 +81,7 @@ void VelocityVerlet::init(Problem& problem, State& state) {
 }
 
 StepReport VelocityVerlet::step(Problem& problem, State& state) {
-  kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
-  state.q += dt_ * state.v;
+  kick_drift(problem.inverse_mass, state.f, 0.5 * dt_, dt_, state.v, state.q);
   evaluate_forces(problem, state, forces_, problem.energies_due);
   kick(problem.inverse_mass, state.f, 0.5 * dt_, state.v);
   thermostat_step(problem, state);

@@ -10,6 +10,9 @@ namespace vimd {
 
 // v += h M⁻¹ f
 void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v);
+// kick, then q ← q + h_drift v (the old q to q_before if given), in one pass over the atoms.
+void kick_drift(const Eigen::VectorXd& inverse_mass, const Coords& f, double h_kick, double h_drift, Coords& v,
+                Coords& q, Coords* q_before = nullptr);
 // state.f, state.potential, state.energy_terms ← the force field at state.q (the energies NaN
 // without `energies`). `scratch` is the caller's reusable buffer, so steady-state steps do not allocate.
 void evaluate_forces(Problem& problem, State& state, Forces& scratch, bool energies = true);
