@@ -6,6 +6,21 @@
 
 namespace vimd {
 
+namespace {
+
+// From this many atoms the force arrays are zeroed by all threads: zeroing a large one on one
+// thread keeps the others waiting at every evaluation.
+constexpr Eigen::Index kParallelZeroAtoms = 4096;
+
+void set_zero(Coords& x, Eigen::Index n_atoms) {
+  x.resize(3, n_atoms);
+  double* p = x.data();
+#pragma omp parallel for schedule(static) if (n_atoms >= kParallelZeroAtoms)
+  for (Eigen::Index i = 0; i < n_atoms; ++i) p[3 * i] = p[3 * i + 1] = p[3 * i + 2] = 0;
+}
+
+}  // namespace
+
 void ForceField::add(std::unique_ptr<ForceTerm> term) {
   auto names = term->energy_names();
   const auto part_of = term->energy_part_of();
@@ -52,7 +67,7 @@ void ForceField::place_sites(Coords& q, Coords& v) const {
 
 void ForceField::evaluate(const Coords& q_atoms, Forces& out, bool energies, const Evaluation& how) {
   const Coords& q = with_sites(q_atoms);
-  out.f.setZero(3, q.cols());
+  set_zero(out.f, q.cols());
   out.terms.assign(names_.size(), energies ? 0.0 : std::numeric_limits<double>::quiet_NaN());
   ForceMasks* keep = how.keep_masks ? &out.masks : nullptr;
   if (keep) keep->terms_.resize(terms_.size());
@@ -77,7 +92,7 @@ void ForceField::hessian_vector(const Coords& q_atoms, const Coords& u_atoms, Co
     sites_->tangent(q, tangent_);
   }
   const Coords& u = sites_ ? tangent_ : u_atoms;
-  out.setZero(3, q.cols());
+  set_zero(out, q.cols());
   for (std::size_t k = 0; k < terms_.size(); ++k) terms_[k]->add_hessian_vector(q, u, out, for_term(k, how, nullptr));
   if (sites_) {
     const Coords* site_forces = nullptr;

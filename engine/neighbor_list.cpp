@@ -81,12 +81,11 @@ double skin_fitting_box(const Box& box, double cutoff, double skin) {
 
 double max_displacement(const Coords& a, const Coords& b) {
   if (a.cols() != b.cols()) return INFINITY;
-  // One thread: this runs before every evaluation and costs about as much as starting a team.
   const double* now = a.data();
   const double* then = b.data();
   const Eigen::Index n = a.cols();
   double max_d2 = 0;
-#pragma omp simd reduction(max : max_d2)
+#pragma omp parallel for simd schedule(static) reduction(max : max_d2) if (n >= kParallelAtoms)
   for (Eigen::Index i = 0; i < n; ++i) {
     const double dx = now[3 * i] - then[3 * i], dy = now[3 * i + 1] - then[3 * i + 1],
                  dz = now[3 * i + 2] - then[3 * i + 2];
