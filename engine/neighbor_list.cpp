@@ -43,8 +43,9 @@ bool is_positive_image(const Eigen::Vector3i& n) {
 
 }  // namespace
 
-NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions)
-    : box_(box), cutoff_(cutoff), skin_(skin), exclusions_(std::move(exclusions)) {
+NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions,
+                           std::vector<char> leading)
+    : box_(box), cutoff_(cutoff), skin_(skin), exclusions_(std::move(exclusions)), leading_(std::move(leading)) {
   if (!(cutoff > 0)) throw InputError("[forcefield]", 0, "cutoff must be positive");
   if (!(skin >= 0)) throw InputError("[forcefield]", 0, "neighbor_skin must not be negative");
   const double list_range = cutoff + skin;
@@ -177,10 +178,15 @@ void NeighborList::bin_atoms(const Coords& q) {
     for (int i = 0; i < n; ++i) sorted[fill[column_of[i]]++] = i;
   }
 #pragma omp parallel for schedule(dynamic, 16) if (n >= kParallelAtoms)
-  for (int c = 0; c < n_columns; ++c)
-    std::sort(sorted.begin() + column_atom_start[c], sorted.begin() + column_atom_start[c + 1], [&](int a, int b) {
+  for (int c = 0; c < n_columns; ++c) {
+    const auto begin = sorted.begin() + column_atom_start[c], end = sorted.begin() + column_atom_start[c + 1];
+    std::sort(begin, end, [&](int a, int b) {
       return wrapped_(2, a) < wrapped_(2, b) || (wrapped_(2, a) == wrapped_(2, b) && a < b);
     });
+    if (leading_.empty()) continue;
+    for (auto half = begin; half < end; half += std::min<std::ptrdiff_t>(kHalf, end - half))
+      std::stable_partition(half, half + std::min<std::ptrdiff_t>(kHalf, end - half), [&](int a) { return leading_[a] != 0; });
+  }
 
   column_cluster_start_.assign(n_columns + 1, 0);
   for (int c = 0; c < n_columns; ++c) {

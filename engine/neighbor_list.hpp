@@ -2,7 +2,8 @@
 // Buffered cluster-pair Verlet list (the GROMACS "nbnxm" layout, simplified).
 //
 // Atoms are binned into x-y columns, sorted by z inside each column and cut into clusters of
-// kClusterSize atoms (the last cluster of a column is padded). The list holds, for every
+// kClusterSize atoms (the last cluster of a column is padded); inside each half-cluster, atoms
+// marked as leading come first. The list holds, for every
 // half-cluster i (kHalfSize atoms), the j-clusters with an atom within cutoff + skin of one of
 // its atoms, each with a periodic shift and a bit mask of those atom pairs (padding, exclusions
 // and double counting removed). Every atom pair is listed once.
@@ -51,8 +52,12 @@ class NeighborList {
   };
 
   // exclusions[i]: atoms that have no nonbonded interaction with atom i (System::exclusions).
+  // leading[i] != 0 (optional): atom i goes before the others of its half-cluster. The pair kernels
+  // skip a row vector of i atoms none of which has Lennard-Jones: with those atoms first, fewer row
+  // vectors hold one (GROMACS sorts its i-clusters the same way).
   // Throws InputError if a periodic box length is shorter than twice the cut-off.
-  NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions);
+  NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions,
+               std::vector<char> leading = {});
 
   // Rebuilds when an atom has moved more than `allowed` nm since the last build (or never was
   // built). skin/2 keeps every pair inside the cut-off listed; a pruned list (forcefields/pair_lists.hpp)
@@ -113,6 +118,7 @@ class NeighborList {
   Box box_;
   double cutoff_, skin_;
   std::vector<std::vector<int>> exclusions_;
+  std::vector<char> leading_;
 
   int n_atoms_ = 0;
   long builds_ = 0;

@@ -103,6 +103,25 @@ double search_skin_for(const System& system, const ForceFieldConfig& config) {
   return search_skin - skin >= skin ? search_skin : skin;
 }
 
+// Some c6 or c12 of type t's row is not zero.
+bool type_has_lj(const System& system, int t) {
+  return (system.c6.row(t).array() != 0).any() || (system.c12.row(t).array() != 0).any();
+}
+
+// Per atom: 1 where its type has Lennard-Jones; empty where the type tables do not fit (the
+// constructor reports that).
+std::vector<char> atoms_with_lj(const System& system) {
+  const Eigen::Index n_types = system.c6.rows();
+  if (system.c6.cols() != n_types || system.c12.rows() != n_types || system.c12.cols() != n_types) return {};
+  std::vector<char> lj(system.type.size());
+  for (std::size_t a = 0; a < lj.size(); ++a) {
+    const int t = system.type[a];
+    if (t < 0 || t >= n_types) return {};
+    lj[a] = type_has_lj(system, t);
+  }
+  return lj;
+}
+
 // Small lists run on one thread: starting a team would cost more than the pairs.
 constexpr std::size_t kParallelEntries = 2048;
 
@@ -120,7 +139,7 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       charge_(system.charge),
       type_(system.type),
       fresh_lists_(system.box, config.cutoff, search_skin_for(system, config), skin_for(system, config),
-                   system.exclusions),
+                   system.exclusions, atoms_with_lj(system)),
       run_(fresh_workspace()) {
   if (system.c6.rows() != system.c6.cols() || system.c12.rows() != n_types_ || system.c12.cols() != n_types_)
     throw std::invalid_argument("NonbondedPairTerm: c6/c12 must be square matrices of the same size");
@@ -140,10 +159,8 @@ NonbondedPairTerm::NonbondedPairTerm(const System& system, const ForceFieldConfi
       c6_[a * n_types_ + b] = system.c6(a, b);
       c12_[a * n_types_ + b] = system.c12(a, b);
     }
-  type_has_lj_.assign(n_types_, 0);
-  for (int a = 0; a < n_types_; ++a)
-    for (int b = 0; b < n_types_; ++b)
-      if (system.c6(a, b) != 0 || system.c12(a, b) != 0) type_has_lj_[a] = 1;
+  type_has_lj_.resize(n_types_);
+  for (int t = 0; t < n_types_; ++t) type_has_lj_[t] = type_has_lj(system, t);
   double sum_q2 = 0;  // a plain loop: Eigen's AVX-512 reduction trips a GCC 12 false-positive warning
   for (double qi : charge_) sum_q2 += qi * qi;
   for_each_present_form(forms_, [&](const auto& form) {

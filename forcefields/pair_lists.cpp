@@ -37,8 +37,8 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 PairLists::PairLists(const Box& box, double cutoff, double search_skin, double skin,
-                     std::vector<std::vector<int>> exclusions)
-    : skin_(skin), list_(box, cutoff, search_skin, std::move(exclusions)) {}
+                     std::vector<std::vector<int>> exclusions, std::vector<char> leading)
+    : skin_(skin), list_(box, cutoff, search_skin, std::move(exclusions), std::move(leading)) {}
 
 double PairLists::search(const Coords& q, double allowed) {
   const long builds = list_.builds();

@@ -70,7 +70,9 @@ struct StepList {
 class PairLists {
  public:
   // search_skin ≥ skin; equal: no pruning.
-  PairLists(const Box& box, double cutoff, double search_skin, double skin, std::vector<std::vector<int>> exclusions);
+  // exclusions, leading: as NeighborList's.
+  PairLists(const Box& box, double cutoff, double search_skin, double skin, std::vector<std::vector<int>> exclusions,
+            std::vector<char> leading = {});
 
   // Searches or prunes the regular list unless every atom is within `allowed` of where it was
   // pruned (searched, without pruning), so that it holds every pair within
