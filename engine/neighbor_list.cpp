@@ -185,7 +185,8 @@ void NeighborList::bin_atoms(const Coords& q) {
     });
     if (leading_.empty()) continue;
     for (auto half = begin; half < end; half += std::min<std::ptrdiff_t>(kHalf, end - half))
-      std::stable_partition(half, half + std::min<std::ptrdiff_t>(kHalf, end - half), [&](int a) { return leading_[a] != 0; });
+      std::stable_partition(half, half + std::min<std::ptrdiff_t>(kHalf, end - half),
+                            [&](int a) { return leading_[a] != 0; });
   }
 
   column_cluster_start_.assign(n_columns + 1, 0);
