@@ -11,15 +11,22 @@
 
 namespace vimd {
 
+namespace {
+// Atom i's part of kick().
+inline void kick_atom(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v, int i) {
+  v.col(i) += (h * inverse_mass[i]) * f.col(i);
+}
+}  // namespace
+
 void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v) {
-  for_each_atom(static_cast<int>(v.cols()), [&](int i) { v.col(i) += (h * inverse_mass[i]) * f.col(i); });
+  for_each_atom(static_cast<int>(v.cols()), [&](int i) { kick_atom(inverse_mass, f, h, v, i); });
 }
 
 void kick_drift(const Eigen::VectorXd& inverse_mass, const Coords& f, double h_kick, double h_drift, Coords& v,
                 Coords& q, Coords* q_before) {
   if (q_before) q_before->resize(3, q.cols());
   for_each_atom(static_cast<int>(v.cols()), [&](int i) {
-    v.col(i) += (h_kick * inverse_mass[i]) * f.col(i);
+    kick_atom(inverse_mass, f, h_kick, v, i);
     if (q_before) q_before->col(i) = q.col(i);
     q.col(i) += h_drift * v.col(i);
   });
