@@ -1,11 +1,12 @@
-// The cluster-pair distance test of the neighbour search, once per SIMD target (Highway's
+// The cluster-pair distance tests of the neighbour search, once per SIMD target (Highway's
 // foreach_target re-includes this file for each), dispatched at run time: 8 x 8 distances in
-// vectors of the target's width instead of the baseline's two doubles.
+// single-precision vectors of the target's width, laid out as the pair loops' (pair_layout-inl.h).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "engine/cluster_pair_kernels.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 
 #include "engine/cluster_pair_kernels.hpp"
+#include "engine/pair_layout-inl.h"
 #include "engine/simd-inl.h"
 #include "hwy/highway.h"
 
@@ -14,25 +15,45 @@ namespace vimd {
 namespace HWY_NAMESPACE {
 namespace {
 
-constexpr int kCluster = 8, kHalf = 4;
+constexpr int kCluster = NeighborList::kClusterSize, kHalf = NeighborList::kHalfSize;
 
-std::uint64_t cluster_pair_near(const double* x, const double* y, const double* z, int a_first, int b_first,
-                                const double shift[3], double range2, double nearest2[2]) {
-  const int lanes = SimdDouble::lanes();
-  std::uint64_t near = 0;
-  SimdDouble closest[2] = {SimdDouble::broadcast(HUGE_VAL), SimdDouble::broadcast(HUGE_VAL)};
-  for (int j0 = 0; j0 < kCluster; j0 += lanes) {
-    const SimdDouble xj = simd_load(x + b_first + j0) + shift[0], yj = simd_load(y + b_first + j0) + shift[1],
-                     zj = simd_load(z + b_first + j0) + shift[2];
-    for (int i = 0; i < kCluster; ++i) {
-      const SimdDouble dx = x[a_first + i] - xj, dy = y[a_first + i] - yj, dz = z[a_first + i] - zj;
-      const SimdDouble r2 = dx * dx + dy * dy + dz * dz;
-      near |= static_cast<std::uint64_t>(bits_from_mask(r2 < range2)) << (i * kCluster + j0);
-      closest[i / kHalf] = simd_min(closest[i / kHalf], r2);
-    }
+void cluster_pair_near(const float* x, const float* y, const float* z, int a_first, int b0, unsigned candidates,
+                       const float shift[3], float range2, float rounding, std::uint64_t near[kBoxBatch],
+                       float nearest[kBoxBatch][2]) {
+  using V = SimdFloat;
+  using L = PairLayout<float>;
+  constexpr int kRows = L::kRows, kJ = L::kJLanes, kVectors = kCluster / kRows;
+  // The shift moves the i atoms once for all candidates instead of every j atom.
+  V xi[kVectors], yi[kVectors], zi[kVectors];
+  for (int r = 0; r < kVectors; ++r) {
+    xi[r] = broadcast_rows(x + a_first, r * kRows) - shift[0];
+    yi[r] = broadcast_rows(y + a_first, r * kRows) - shift[1];
+    zi[r] = broadcast_rows(z + a_first, r * kRows) - shift[2];
   }
-  for (int h = 0; h < 2; ++h) nearest2[h] = simd_min_lane(closest[h]);
-  return near;
+  const V range2_v = V::broadcast(range2);
+  for (; candidates; candidates &= candidates - 1) {
+    const int c = __builtin_ctz(candidates);
+    const int jb = (b0 + c) * kCluster;
+    std::uint64_t bits = 0;
+    V closest[2] = {V::broadcast(HUGE_VALF), V::broadcast(HUGE_VALF)};
+    for (int js = 0; js < kCluster; js += kJ) {
+      const V xj = load_j(x + jb + js), yj = load_j(y + jb + js), zj = load_j(z + jb + js);
+#pragma GCC unroll 8
+      for (int r = 0; r < kVectors; ++r) {
+        const V dx = xi[r] - xj, dy = yi[r] - yj, dz = zi[r] - zj;
+        const V r2 = dx * dx + dy * dy + dz * dz;
+        bits |= static_cast<std::uint64_t>(bits_from_mask(r2 < range2_v)) << (r * kRows * kCluster + js);
+        closest[r * kRows / kHalf] = simd_min(closest[r * kRows / kHalf], r2);
+      }
+    }
+    near[c] = bits;
+    for (int h = 0; h < 2; ++h) nearest[c][h] = static_cast<float>(simd_min_lane(closest[h]));
+  }
+  // Squared distances to distances for all candidates at once (the others' values are unspecified
+  // but finite, as left by an earlier call).
+  float* const all = &nearest[0][0];
+  for (int k = 0; k < 2 * kBoxBatch; k += V::lanes())
+    simd_store(all + k, positive_part(simd_sqrt(simd_load(all + k)) - rounding));
 }
 
 unsigned box_batch_near(const double* const lo[3], const double* const hi[3], int b0, const double a_lo[3],

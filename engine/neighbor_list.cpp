@@ -4,7 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <bit>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -19,20 +19,15 @@ namespace {
 
 constexpr int kCluster = NeighborList::kClusterSize;
 
-// The largest float below x ≥ 0 (0 for 0): std::nextafter(float(x), 0.f) without the library call
-// (the float of x is within half an ulp of it; one ulp less is below).
-inline float float_below(double x) {
-  const float f = static_cast<float>(x);
-  return f > 0 ? std::bit_cast<float>(std::bit_cast<std::uint32_t>(f) - 1) : 0.0f;
-}
 // Below this many atoms the O(N) loops run on one thread: starting a team costs more than the work
 // (small systems are evaluated very often by the variational integrators).
 constexpr int kParallelAtoms = 4096;
 // The pair search does a few hundred distance tests per atom, so it pays to share from far fewer.
 constexpr int kParallelSearchAtoms = 1024;
 constexpr int kHalf = NeighborList::kHalfSize;
-// Where padding slots sit in the search (nm): no distance to them counts.
-constexpr double kFarAway = 1e6;
+// Where padding slots sit in the search (nm): slot s at kFarAway (1 + s), far from everything,
+// each other included, so that no distance to them counts (nor is the nearest).
+constexpr float kFarAway = 1e6f;
 
 // The half list keeps an image of a cluster paired with itself only for one of ±shift.
 bool is_positive_image(const Eigen::Vector3i& n) {
@@ -209,14 +204,23 @@ void NeighborList::bin_atoms(const Coords& q) {
   for (int s = 0; s < n_slots(); ++s)
     if (slot_atom_[s] < 0) padding_slots_.push_back(s);
   cluster_occupancy_.assign(n_clusters_, 0u);
-  // Padding sits far away, so that it is never near anything (nor the nearest).
-  for (auto& w : slot_wrapped_) w.assign(slot_atom_.size(), kFarAway);
+  for (auto& w : slot_wrapped_) w.resize(slot_atom_.size());
   for (int s = 0; s < n_slots(); ++s) {
     const int a = slot_atom_[s];
-    if (a < 0) continue;
+    if (a < 0) {
+      for (auto& w : slot_wrapped_) w[s] = kFarAway * static_cast<float>(1 + s);
+      continue;
+    }
     cluster_occupancy_[s / kCluster] |= 1u << (s % kCluster);
-    for (int k = 0; k < 3; ++k) slot_wrapped_[k][s] = wrapped_(k, a);
+    for (int k = 0; k < 3; ++k) slot_wrapped_[k][s] = static_cast<float>(wrapped_(k, a));
   }
+  // The search's distances are computed from these and the shifts.
+  double largest = 0;
+  for (int k = 0; k < 3; ++k)
+    if (n > 0) largest = std::max(largest, wrapped_.row(k).cwiseAbs().maxCoeff());
+  double largest_shift = 0;
+  for (const Vec3& shift : shift_vectors_) largest_shift = std::max(largest_shift, shift.cwiseAbs().maxCoeff());
+  search_rounding_ = single_precision_rounding(largest + largest_shift + cutoff_ + skin_);
   // Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half
   // has its partners in one or two clusters), so that a mask needs only a few comparisons.
   half_rows_.assign(n_halves(), 0u);
@@ -267,17 +271,8 @@ void NeighborList::compute_bounds() {
   }
 }
 
-void NeighborList::pair_masks(ClusterPairKernel kernel, int i_cluster, int j_cluster, int shift_index,
-                              std::uint32_t masks[2], float nearest[2]) const {
-  const double range2 = (cutoff_ + skin_) * (cutoff_ + skin_);
-  const Vec3& shift = shift_vectors_[shift_index];
-  // Only pairs within cut-off + skin now can come inside the cut-off before the next build.
-  double nearest2[2];
-  const std::uint64_t near =  // bit (i * 8 + j) for the 8 x 8 atom pairs
-      kernel(slot_wrapped_[0].data(), slot_wrapped_[1].data(), slot_wrapped_[2].data(), i_cluster * kCluster,
-             j_cluster * kCluster, shift.data(), range2, nearest2);
-  // Rounded down to float: a pruning may then skip an entry for good only where it truly is far.
-  for (int hh = 0; hh < 2; ++hh) nearest[hh] = float_below(std::sqrt(nearest2[hh]));
+inline void NeighborList::entry_masks(int i_cluster, int j_cluster, int shift_index, std::uint64_t near,
+                              std::uint32_t masks[2]) const {
   // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
   // its own image.
   constexpr std::uint32_t kRowsOf = 0x01010101u;  // one byte per i row
@@ -313,12 +308,23 @@ void NeighborList::search_pairs() {
   const BoxBatchKernel box_batch = simd::box_batch_kernel();
   const double* const lo[3] = {cluster_lo_[0].data(), cluster_lo_[1].data(), cluster_lo_[2].data()};
   const double* const hi[3] = {cluster_hi_[0].data(), cluster_hi_[1].data(), cluster_hi_[2].data()};
+  // The atom pairs are tested in single precision: within the range widened by the rounding, so
+  // that no pair within it is missed, and `nearest` lowered by it, so that it stays a lower bound.
+  const float* const x = slot_wrapped_[0].data();
+  const float* const y = slot_wrapped_[1].data();
+  const float* const z = slot_wrapped_[2].data();
+  const float near_range2 = static_cast<float>((list_range + search_rounding_) * (list_range + search_rounding_));
+  std::vector<std::array<float, 3>> shift_single(shift_vectors_.size());
+  for (std::size_t si = 0; si < shift_vectors_.size(); ++si)
+    for (int k = 0; k < 3; ++k) shift_single[si][k] = static_cast<float>(shift_vectors_[si][k]);
 #pragma omp parallel if (n_atoms_ >= kParallelSearchAtoms)
   {
     const int t = omp_get_thread_num();
     std::vector<Entry>& out = per_thread[t];
     out.clear();
     std::vector<Entry> found[2];
+    std::uint64_t near[kBoxBatch];
+    float nearest[kBoxBatch][2] = {};  // finite from the start: the kernel converts all of it
 #pragma omp for schedule(dynamic, 8)
     for (int a_cluster = 0; a_cluster < n_clusters_; ++a_cluster) {
       // Candidates by the bounding box of the whole i-cluster, then per half.
@@ -355,15 +361,18 @@ void NeighborList::search_pairs() {
             for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kBoxBatch) {
               unsigned candidates = box_batch(lo, hi, b0, ba.lo.data(), ba.hi.data(), shift.data(), range2);
               if (column_end - b0 < kBoxBatch) candidates &= (1u << (column_end - b0)) - 1;
+              // The half list keeps a cluster's own images for one of ±shift only.
+              if (b0 == a_cluster && si != zero_shift_ && !positive) candidates &= ~1u;
+              if (candidates == 0) continue;
+              kernel(x, y, z, a_cluster * kCluster, b0, candidates, shift_single[si].data(), near_range2,
+                     static_cast<float>(search_rounding_), near, nearest);
               for (; candidates; candidates &= candidates - 1) {
-                const int b = b0 + __builtin_ctz(candidates);
-                // The half list keeps a cluster's own images for one of ±shift only.
-                if (b == a_cluster && si != zero_shift_ && !positive) continue;
+                const int c = __builtin_ctz(candidates);
                 std::uint32_t masks[2];
-                float nearest[2];
-                pair_masks(kernel, a_cluster, b, si, masks, nearest);
+                entry_masks(a_cluster, b0 + c, si, near[c], masks);
                 for (int hh = 0; hh < 2; ++hh)
-                  if (masks[hh] != 0) found[hh].push_back({b, si, masks[hh], nearest[hh]});
+                  if (masks[hh] != 0)
+                    found[hh].push_back({b0 + c, si, masks[hh], nearest[c][hh]});
               }
             }
           }

@@ -15,6 +15,7 @@
 // never missed. Small or non-periodic systems need no special case: with few columns the search
 // simply visits all cluster pairs (all periodic images within reach included).
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "engine/box.hpp"
@@ -30,6 +31,13 @@ double max_displacement(const Coords& a, const Coords& b);
 // have one image only, so 2 (cutoff + buffer) may not exceed a box length. A box shorter than twice
 // the cut-off allows none (0; the input check refuses it).
 double skin_fitting_box(const Box& box, double cutoff, double skin);
+
+// A bound on the error of a distance computed in single precision from coordinates and shifts
+// below `magnitude` in size (nm): a few roundings of each coordinate difference, of its square and
+// of the sum, each at most one float epsilon of its operand, with room.
+inline double single_precision_rounding(double magnitude) {
+  return 16 * std::numeric_limits<float>::epsilon() * magnitude;
+}
 
 class NeighborList {
  public:
@@ -110,10 +118,9 @@ class NeighborList {
   // x, y, z[slot of a] = value(a) for every atom a, and 0 at the padding (the packers' work).
   template <class Real, class Value>
   void pack(Real* x, Real* y, Real* z, Value&& value) const;
-  // Entry masks of the two i-halves of i_cluster against j_cluster + shift, and each half's
-  // nearest distance to it.
-  void pair_masks(ClusterPairKernel kernel, int i_cluster, int j_cluster, int shift_index, std::uint32_t masks[2],
-                  float nearest[2]) const;
+  // Entry masks of the two i-halves of i_cluster against j_cluster + shift, from the pairs near
+  // each other (bit i * 8 + j, as the search kernel gives them).
+  void entry_masks(int i_cluster, int j_cluster, int shift_index, std::uint64_t near, std::uint32_t masks[2]) const;
 
   Box box_;
   double cutoff_, skin_;
@@ -136,7 +143,8 @@ class NeighborList {
   int n_clusters_ = 0;
   std::vector<int> slot_atom_, atom_slot_;
   std::vector<int> padding_slots_;  // slots that hold no atom
-  std::vector<double> slot_wrapped_[3];      // wrapped build positions in slot order
+  std::vector<float> slot_wrapped_[3];       // wrapped build positions in slot order, for the search
+  double search_rounding_ = 0;               // nm: bound on the error of the search's distances
   std::vector<unsigned> cluster_occupancy_;  // per cluster: bit k set if slot k holds an atom
   struct ClusterBits {
     int j_cluster;

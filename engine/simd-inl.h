@@ -17,7 +17,9 @@
 #define VIMD_ENGINE_SIMD_INL_H_
 #endif
 
+#include <bit>
 #include <cstdint>
+#include <cstring>
 
 #include "hwy/highway.h"
 #include "hwy/contrib/math/math-inl.h"
@@ -122,16 +124,24 @@ HWY_INLINE SimdMaskOf<Real> operator&(SimdMaskOf<Real> a, SimdMaskOf<Real> b) {
   return {hn::And(a.m, b.m)};
 }
 // Lanes whose bit is set in the low lanes() bits of `bits` (at most 16 lanes), and back.
+// Highway's bit arrays are little-endian; so are the targets: one 16-bit copy each way, which the
+// compiler turns into a move between a mask and a general register (assembled byte by byte, the
+// bits cost several instructions more in the list pruning's inner loop).
+static_assert(std::endian::native == std::endian::little);
 template <class Real>
 HWY_INLINE SimdMaskOf<Real> mask_from_bits(unsigned bits) {
-  const std::uint8_t bytes[8] = {static_cast<std::uint8_t>(bits), static_cast<std::uint8_t>(bits >> 8)};
+  std::uint8_t bytes[8] = {};
+  const auto low = static_cast<std::uint16_t>(bits);
+  std::memcpy(bytes, &low, sizeof low);
   return {hn::LoadMaskBits(typename SimdVec<Real>::Tag(), bytes)};
 }
 template <class Real>
 HWY_INLINE unsigned bits_from_mask(SimdMaskOf<Real> m) {
   std::uint8_t bytes[8] = {};
   hn::StoreMaskBits(typename SimdVec<Real>::Tag(), m.m, bytes);
-  return bytes[0] | static_cast<unsigned>(bytes[1]) << 8;
+  std::uint16_t bits;
+  std::memcpy(&bits, bytes, sizeof bits);
+  return bits;
 }
 
 template <class Real>

@@ -479,12 +479,15 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
   using V = SimdVec<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   const V range2 = V::broadcast(d.cutoff2);
+  // In the entries' precision, rounded up: an entry at or beyond it is beyond skip_from.
+  float skip = static_cast<float>(skip_from);
+  if (skip < skip_from) skip = std::nextafter(skip, INFINITY);
   for (int h = h0; h < h1; ++h) {
     ShiftedHalf<Real> positions;
     positions.load(d, h);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      if (entry.nearest >= skip_from) {
+      if (entry.nearest >= skip) {
         inside_masks[e] = 0;
         continue;
       }

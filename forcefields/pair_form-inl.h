@@ -24,6 +24,7 @@
 #define VIMD_FORCEFIELDS_PAIR_FORM_INL_H_
 #endif
 
+#include "engine/pair_layout-inl.h"
 #include "engine/simd-inl.h"
 #include "forcefields/nonbonded_kernels.hpp"
 
@@ -34,45 +35,6 @@ namespace HWY_NAMESPACE {
 template <class Constants, auto kVariant>
 struct PairForm;
 
-// The pair loop's vectors: one holds kJLanes j atoms for each of kRows consecutive i atoms (rows)
-// of a half-cluster. One row where a vector is at most a j-cluster wide; two where it is twice as
-// wide (16 floats on AVX-512, GROMACS's 2xMM layout), so that every target fills its vectors.
-template <class Real>
-struct PairLayout {
-  using Tag = typename SimdVec<Real>::Tag;
-  static constexpr int kLanes = static_cast<int>(hn::MaxLanes(Tag()));
-  static constexpr int kRows = kLanes > NeighborList::kClusterSize ? kLanes / NeighborList::kClusterSize : 1;
-  static constexpr int kJLanes = kLanes / kRows;
-  static constexpr int kRowVectors = NeighborList::kHalfSize / kRows;  // vectors per half-cluster
-  static_assert(kRows <= 2 && NeighborList::kHalfSize % kRows == 0);
-};
-
-// The two-row branches call Combine, LowerHalf and UpperHalf unqualified: found by argument-dependent
-// lookup in the targets that have them (the portable scalar target has not, and has one row).
-
-// The kJLanes values at p, the same for every row.
-template <class Real>
-HWY_INLINE SimdVec<Real> load_j(const Real* p) {
-  using L = PairLayout<Real>;
-  if constexpr (L::kRows == 1) {
-    return simd_load(p);
-  } else {
-    const hn::Half<typename L::Tag> half;
-    const auto j = hn::LoadU(half, p);
-    return {Combine(typename L::Tag(), j, j)};
-  }
-}
-// Row r of the vector: values[ii + r], on all of its lanes.
-template <class Real>
-HWY_INLINE SimdVec<Real> broadcast_rows(const Real* values, int ii) {
-  using L = PairLayout<Real>;
-  if constexpr (L::kRows == 1) {
-    return SimdVec<Real>::broadcast(values[ii]);
-  } else {
-    const hn::Half<typename L::Tag> half;
-    return {Combine(typename L::Tag(), hn::Set(half, values[ii + 1]), hn::Set(half, values[ii]))};
-  }
-}
 // Row r of the vector: rows[ii + r][jb ..], e.g. a row of a pair-parameter table.
 template <class Real>
 HWY_INLINE SimdVec<Real> load_rows(const Real* const* rows, int ii, int jb) {

@@ -4,7 +4,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <numeric>
 #include <stdexcept>
 
@@ -73,8 +72,8 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   // Single-precision distances are compared with a range widened by a bound on their rounding
   // (coordinates and shifts below `magnitude`; a few roundings of each difference), so that every
   // pair truly within the range is kept.
-  const double magnitude = max_abs_coordinate(q) + 2 * list_.box().length.maxCoeff() + range;
-  const double float_range = range + 16 * std::numeric_limits<float>::epsilon() * magnitude;
+  const double float_range =
+      range + single_precision_rounding(max_abs_coordinate(q) + 2 * list_.box().length.maxCoeff() + range);
   if (single) {
     for (auto* v : {&x_single_, &y_single_, &z_single_}) v->resize(n_slots);
   } else {

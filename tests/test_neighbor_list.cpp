@@ -618,12 +618,21 @@ TEST(NeighborList, SmallPartlyPeriodicAndNonPeriodicBoxes) {
 
 // Structure: every atom pair image within cut-off + skin at the build is listed exactly once,
 // excluded pairs are absent from the cluster pairs and present in excluded_pairs().
+// The search tests distances in single precision, widened by their rounding: every pair in range
+// listed, none far beyond it, and each entry's `nearest` a lower bound, close to the true one; on
+// every SIMD target.
 TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
-  for (const Vec3& box : {Vec3(2.4, 2.5, 2.6), Vec3(1.85, 1.85, 1.85), Vec3(0.0, 0.0, 0.0)}) {
+  const auto targets = simd::available_targets();
+  const Vec3 boxes[] = {Vec3(2.4, 2.5, 2.6), Vec3(1.85, 1.85, 1.85), Vec3(0.0, 0.0, 0.0)};
+  for (std::size_t run = 0; run < targets.size() * std::size(boxes); ++run) {
+    const std::string& target = targets[run / std::size(boxes)];
+    const Vec3& box = boxes[run % std::size(boxes)];
+    SCOPED_TRACE(target + ", box " + std::to_string(box[0]));
+    simd::use_target(target);
     auto [system, q] = testing::water_like_system(150, box, 51, Vec3(2.0, 2.0, 2.0));
     NeighborList list(system.box, 0.9, 0.1, system.exclusions);
     list.build(q);
-    const double range = 1.0;
+    const double range = 1.0, rounding = 1e-4;
     std::vector<double> x(list.n_slots()), y(list.n_slots()), z(list.n_slots());
     list.pack_positions(q, x.data(), y.data(), z.data());
     // (i, j, image of j relative to i) with i < j → times listed
@@ -631,6 +640,16 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
     for (int h = 0; h < list.n_halves(); ++h)
       for (int e = list.half_start()[h]; e < list.half_start()[h + 1]; ++e) {
         const auto& entry = list.entries()[e];
+        double nearest = INFINITY;
+        for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
+          for (int jj = 0; jj < NeighborList::kClusterSize; ++jj) {
+            const int sa = h * NeighborList::kHalfSize + ii, sb = entry.j_cluster * NeighborList::kClusterSize + jj;
+            if (list.slot_atom()[sa] >= 0 && list.slot_atom()[sb] >= 0)
+              nearest = std::min(nearest, (Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) -
+                                           list.shift_vectors()[entry.shift]).norm());
+          }
+        ASSERT_LE(entry.nearest, nearest);
+        ASSERT_GT(entry.nearest, nearest - rounding);
         for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
           for (int jj = 0; jj < NeighborList::kClusterSize; ++jj) {
             if (!((entry.mask >> (ii * NeighborList::kClusterSize + jj)) & 1u)) continue;
@@ -640,6 +659,7 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
             ASSERT_GE(b, 0);
             ASSERT_NE(a, b);
             const Vec3 d = Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) - list.shift_vectors()[entry.shift];
+            ASSERT_LT(d.norm(), range + rounding);
             int n[3];
             for (int k = 0; k < 3; ++k)
               n[k] = box[k] > 0 ? static_cast<int>(std::lround((q(k, a) - q(k, b) - d[k]) / box[k])) : 0;
@@ -671,6 +691,7 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
     for (const auto& e : system.exclusions) excluded_pairs += static_cast<int>(e.size());
     EXPECT_EQ(static_cast<int>(list.excluded_pairs().size()), excluded_pairs / 2);
   }
+  simd::use_target("");
 }
 
 TEST(NeighborList, RejectsBoxesShorterThanTwiceTheCutoff) {
