@@ -40,7 +40,15 @@ bool is_positive_image(const Eigen::Vector3i& n) {
 
 NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions,
                            std::vector<char> leading)
-    : box_(box), cutoff_(cutoff), skin_(skin), exclusions_(std::move(exclusions)), leading_(std::move(leading)) {
+    : box_(box), cutoff_(cutoff), skin_(skin), leading_(std::move(leading)) {
+  // One flat array: the searches look the lists up in slot order, i.e. at random atoms.
+  if (!exclusions.empty()) {
+    exclusion_start_.assign(exclusions.size() + 1, 0);
+    for (std::size_t a = 0; a < exclusions.size(); ++a) {
+      exclusion_start_[a + 1] = exclusion_start_[a] + static_cast<int>(exclusions[a].size());
+      excluded_atoms_.insert(excluded_atoms_.end(), exclusions[a].begin(), exclusions[a].end());
+    }
+  }
   if (!(cutoff > 0)) throw InputError("[forcefield]", 0, "cutoff must be positive");
   if (!(skin >= 0)) throw InputError("[forcefield]", 0, "neighbor_skin must not be negative");
   const double list_range = cutoff + skin;
@@ -98,8 +106,9 @@ double NeighborList::update(const Coords& q, double allowed) {
 }
 
 void NeighborList::build(const Coords& q) {
-  if (!exclusions_.empty() && static_cast<Eigen::Index>(exclusions_.size()) != q.cols())
-    throw std::invalid_argument("NeighborList: exclusion lists for " + std::to_string(exclusions_.size()) +
+  const int excluding_atoms = static_cast<int>(exclusion_start_.size()) - 1;
+  if (excluding_atoms >= 0 && excluding_atoms != q.cols())
+    throw std::invalid_argument("NeighborList: exclusion lists for " + std::to_string(excluding_atoms) +
                                 " atoms, positions for " + std::to_string(q.cols()));
   const auto start = std::chrono::steady_clock::now();
   n_atoms_ = static_cast<int>(q.cols());
@@ -222,30 +231,47 @@ void NeighborList::bin_atoms(const Coords& q) {
   for (const Vec3& shift : shift_vectors_) largest_shift = std::max(largest_shift, shift.cwiseAbs().maxCoeff());
   search_rounding_ = single_precision_rounding(largest + largest_shift + cutoff_ + skin_);
   // Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half
-  // has its partners in one or two clusters), so that a mask needs only a few comparisons.
-  half_rows_.assign(n_halves(), 0u);
-  half_exclusion_start_.assign(n_halves() + 1, 0);
-  half_exclusions_.clear();
-  for (int h = 0; h < n_halves(); ++h) {
-    for (int ii = 0; ii < kHalf; ++ii) {
-      const int a = slot_atom_[h * kHalf + ii];
-      if (a < 0) continue;
-      half_rows_[h] |= 0xffu << (ii * kCluster);
-      if (exclusions_.empty()) continue;
-      for (int p : exclusions_[a]) {
-        if (p == a) continue;
-        const int ps = atom_slot_[p];
-        const std::uint32_t bit = 1u << (ii * kCluster + ps % kCluster);
-        auto it = std::find_if(half_exclusions_.begin() + half_exclusion_start_[h], half_exclusions_.end(),
-                               [&](const ClusterBits& c) { return c.j_cluster == ps / kCluster; });
-        if (it == half_exclusions_.end())
-          half_exclusions_.push_back({ps / kCluster, bit});
-        else
-          it->mask |= bit;
+  // has its partners in one or two clusters), so that a mask needs only a few comparisons. Each
+  // thread groups its halves' pairs in its own buffer (the lookups miss the cache: the atoms of a
+  // half are far apart in atom order), then they are put in half order.
+  const int n_halves = this->n_halves();
+  half_rows_.assign(n_halves, 0u);
+  half_exclusion_start_.assign(n_halves + 1, 0);
+  std::vector<int> owner(n_halves), offset(n_halves);
+  std::vector<std::vector<ClusterBits>> per_thread(omp_get_max_threads());
+#pragma omp parallel if (n >= kParallelAtoms)
+  {
+    const int t = omp_get_thread_num();
+    std::vector<ClusterBits>& out = per_thread[t];
+#pragma omp for schedule(static)
+    for (int h = 0; h < n_halves; ++h) {
+      const std::size_t first = out.size();
+      for (int ii = 0; ii < kHalf; ++ii) {
+        const int a = slot_atom_[h * kHalf + ii];
+        if (a < 0) continue;
+        half_rows_[h] |= 0xffu << (ii * kCluster);
+        for (int p : excluded_by(a)) {
+          if (p == a) continue;
+          const int ps = atom_slot_[p];
+          const std::uint32_t bit = 1u << (ii * kCluster + ps % kCluster);
+          auto it = std::find_if(out.begin() + first, out.end(),
+                                 [&](const ClusterBits& c) { return c.j_cluster == ps / kCluster; });
+          if (it == out.end())
+            out.push_back({ps / kCluster, bit});
+          else
+            it->mask |= bit;
+        }
       }
+      owner[h] = t;
+      offset[h] = static_cast<int>(first);
+      half_exclusion_start_[h + 1] = static_cast<int>(out.size() - first);
     }
-    half_exclusion_start_[h + 1] = static_cast<int>(half_exclusions_.size());
   }
+  std::partial_sum(half_exclusion_start_.begin(), half_exclusion_start_.end(), half_exclusion_start_.begin());
+  half_exclusions_.resize(half_exclusion_start_.back());
+  for (int h = 0; h < n_halves; ++h)
+    std::copy_n(per_thread[owner[h]].begin() + offset[h], half_exclusion_start_[h + 1] - half_exclusion_start_[h],
+                half_exclusions_.begin() + half_exclusion_start_[h]);
 }
 
 void NeighborList::compute_bounds() {
@@ -399,8 +425,8 @@ void NeighborList::search_pairs() {
 void NeighborList::collect_excluded_pairs() {
   excluded_pairs_.clear();
   const int m[3] = {shift_index_range_[0], shift_index_range_[1], shift_index_range_[2]};
-  for (int a = 0; a < static_cast<int>(exclusions_.size()); ++a)
-    for (int p : exclusions_[a]) {
+  for (int a = 0; a < static_cast<int>(exclusion_start_.size()) - 1; ++a)
+    for (int p : excluded_by(a)) {
       if (p <= a) continue;
       // Image of p nearest to a at the build; positions stay continuous until the next build.
       int image[3];

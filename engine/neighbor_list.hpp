@@ -16,6 +16,7 @@
 // simply visits all cluster pairs (all periodic images within reach included).
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <vector>
 
 #include "engine/box.hpp"
@@ -124,7 +125,11 @@ class NeighborList {
 
   Box box_;
   double cutoff_, skin_;
-  std::vector<std::vector<int>> exclusions_;
+  std::vector<int> exclusion_start_, excluded_atoms_;  // atom a's at [start[a], start[a + 1]); none: empty
+  std::span<const int> excluded_by(int a) const {
+    if (exclusion_start_.empty()) return {};
+    return {excluded_atoms_.data() + exclusion_start_[a], excluded_atoms_.data() + exclusion_start_[a + 1]};
+  }
   std::vector<char> leading_;
 
   int n_atoms_ = 0;
