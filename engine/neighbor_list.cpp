@@ -298,7 +298,7 @@ void NeighborList::compute_bounds() {
 }
 
 inline void NeighborList::entry_masks(int i_cluster, int j_cluster, int shift_index, std::uint64_t near,
-                              std::uint32_t masks[2]) const {
+                                      std::uint32_t masks[2]) const {
   // Real atoms on both sides; inside one cluster each pair once (j > i) and never an atom with
   // its own image.
   constexpr std::uint32_t kRowsOf = 0x01010101u;  // one byte per i row

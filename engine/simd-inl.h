@@ -1,10 +1,10 @@
 // The one SIMD layer (Google Highway): a native vector of doubles as a number type, so that the
 // functional forms (lennard_jones-inl.h, reaction_field-inl.h) are written once, as templates on
 // the number type, and instantiated for double (reference sums, tests) and for SimdDouble (the
-// pair loops of forcefields/nonbonded_kernels-inl.h, the neighbour search's cluster-pair distances
-// in cluster_pair_kernels.cpp). Its width is the target's: 8 lanes on AVX-512, 4 on AVX2, 2 on
-// SSE4. SimdFloat, the same in single precision (up to 16 lanes), serves the mixed-precision
-// kernels. No intrinsics outside this file; Highway picks the target at run time (one choice for
+// pair loops of forcefields/nonbonded_kernels-inl.h). Its width is the target's: 8 lanes on
+// AVX-512, 4 on AVX2, 2 on SSE4. SimdFloat, the same in single precision (up to 16 lanes), serves
+// the mixed-precision kernels and the neighbour search's cluster-pair distances
+// (cluster_pair_kernels.cpp). No intrinsics outside this file; Highway picks the target at run time (one choice for
 // all kernels: simd::use_target).
 //
 // Highway's per-target header: included once per compiled target (foreach_target.h re-includes
