@@ -36,6 +36,21 @@ bool is_positive_image(const Eigen::Vector3i& n) {
   return false;
 }
 
+// Per-half results built by several threads, put in half order, so that the result does not depend
+// on which thread did which half: half h's items are the `start[h + 1]` (on entry: its count) at
+// offset[h] of per_thread[owner[h]]; on return start[h] is where half h's items begin in `out`.
+template <class T>
+void assemble_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
+                            const std::vector<int>& offset, std::vector<int>& start, std::vector<T>& out,
+                            bool parallel) {
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  out.resize(start.back());
+  const int n_halves = static_cast<int>(owner.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (int h = 0; h < n_halves; ++h)
+    std::copy_n(per_thread[owner[h]].begin() + offset[h], start[h + 1] - start[h], out.begin() + start[h]);
+}
+
 }  // namespace
 
 NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vector<std::vector<int>> exclusions,
@@ -233,7 +248,7 @@ void NeighborList::bin_atoms(const Coords& q) {
   // Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half
   // has its partners in one or two clusters), so that a mask needs only a few comparisons. Each
   // thread groups its halves' pairs in its own buffer (the lookups miss the cache: the atoms of a
-  // half are far apart in atom order), then they are put in half order.
+  // half are far apart in atom order).
   const int n_halves = this->n_halves();
   half_rows_.assign(n_halves, 0u);
   half_exclusion_start_.assign(n_halves + 1, 0);
@@ -267,11 +282,7 @@ void NeighborList::bin_atoms(const Coords& q) {
       half_exclusion_start_[h + 1] = static_cast<int>(out.size() - first);
     }
   }
-  std::partial_sum(half_exclusion_start_.begin(), half_exclusion_start_.end(), half_exclusion_start_.begin());
-  half_exclusions_.resize(half_exclusion_start_.back());
-  for (int h = 0; h < n_halves; ++h)
-    std::copy_n(per_thread[owner[h]].begin() + offset[h], half_exclusion_start_[h + 1] - half_exclusion_start_[h],
-                half_exclusions_.begin() + half_exclusion_start_[h]);
+  assemble_in_half_order(per_thread, owner, offset, half_exclusion_start_, half_exclusions_, n >= kParallelAtoms);
 }
 
 void NeighborList::compute_bounds() {
@@ -326,7 +337,7 @@ void NeighborList::search_pairs() {
   // Clusters are shared out dynamically (the half list gives early clusters more partners); each
   // thread appends its entries to its own buffer and notes where each half's entries went, and the
   // list is assembled in half order afterwards, so it does not depend on the thread count.
-  std::vector<int> count(n_halves + 1, 0);
+  half_start_.assign(n_halves + 1, 0);
   std::vector<int> owner(n_halves), offset(n_halves);
   std::vector<std::vector<Entry>>& per_thread = search_buffers_;  // kept: no regrowing at every search
   per_thread.resize(omp_get_max_threads());
@@ -407,19 +418,14 @@ void NeighborList::search_pairs() {
       // each in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
       for (int hh = 0; hh < 2; ++hh) {
         const int h = 2 * a_cluster + hh;
-        count[h + 1] = static_cast<int>(found[hh].size());
+        half_start_[h + 1] = static_cast<int>(found[hh].size());
         owner[h] = t;
         offset[h] = static_cast<int>(out.size());
         out.insert(out.end(), found[hh].begin(), found[hh].end());
       }
     }
   }
-  half_start_.assign(n_halves + 1, 0);
-  std::partial_sum(count.begin(), count.end(), half_start_.begin());
-  entries_.resize(half_start_.back());
-#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelSearchAtoms)
-  for (int h = 0; h < n_halves; ++h)
-    std::copy_n(per_thread[owner[h]].begin() + offset[h], count[h + 1], entries_.begin() + half_start_[h]);
+  assemble_in_half_order(per_thread, owner, offset, half_start_, entries_, n_atoms_ >= kParallelSearchAtoms);
 }
 
 void NeighborList::collect_excluded_pairs() {

@@ -4,8 +4,8 @@
 // pair loops of forcefields/nonbonded_kernels-inl.h). Its width is the target's: 8 lanes on
 // AVX-512, 4 on AVX2, 2 on SSE4. SimdFloat, the same in single precision (up to 16 lanes), serves
 // the mixed-precision kernels and the neighbour search's cluster-pair distances
-// (cluster_pair_kernels.cpp). No intrinsics outside this file; Highway picks the target at run time (one choice for
-// all kernels: simd::use_target).
+// (cluster_pair_kernels.cpp). No intrinsics outside this file; Highway picks the target at run
+// time (one choice for all kernels: simd::use_target).
 //
 // Highway's per-target header: included once per compiled target (foreach_target.h re-includes
 // the kernel file), so it has a toggle guard instead of #pragma once, and everything lives in
@@ -124,9 +124,9 @@ HWY_INLINE SimdMaskOf<Real> operator&(SimdMaskOf<Real> a, SimdMaskOf<Real> b) {
   return {hn::And(a.m, b.m)};
 }
 // Lanes whose bit is set in the low lanes() bits of `bits` (at most 16 lanes), and back.
-// Highway's bit arrays are little-endian; so are the targets: one 16-bit copy each way, which the
-// compiler turns into a move between a mask and a general register (assembled byte by byte, the
-// bits cost several instructions more in the list pruning's inner loop).
+// Highway's bit arrays are little-endian, as are the targets: the bits are copied as one 16-bit
+// word each way, which compiles to a single move between a mask and a general register (the pair
+// and pruning loops do this per vector).
 static_assert(std::endian::native == std::endian::little);
 template <class Real>
 HWY_INLINE SimdMaskOf<Real> mask_from_bits(unsigned bits) {
