@@ -20,6 +20,11 @@ struct Problem {
   // the run loop clears it for steps nobody samples, so that the force field can skip the energy
   // work there (the state's energies are then NaN). Forces are always computed.
   bool energies_due = true;
+  // Whether an observer sees the State::v a step() ends in. Where nobody does, an integrator may
+  // leave in it any velocity from which its next step goes on to the same trajectory (RATTLE: v
+  // before the velocity projection, whose part along the constraint gradients the next position
+  // stage removes again), and a failed run's last_good state shows that velocity.
+  bool velocities_due = true;
 };
 
 struct StepReport {

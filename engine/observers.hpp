@@ -51,6 +51,7 @@ class TrajectoryWriter : public Observer {
   ~TrajectoryWriter() override;
   long every() const override { return every_; }
   bool needs_sample() const override { return false; }
+  bool reads_velocities() const override { return true; }
   void begin(const RunInfo&) override;
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;

@@ -196,16 +196,18 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
     return t;
   };
   // Energies only for the states that are sampled (GROMACS's nstcalcenergy): the force field skips
-  // the energy work on the other steps.
-  auto energies_due_at = [&](long step) {
+  // the energy work on the other steps. On-step velocities only where an observer reads them.
+  // Both follow the schedule alone, so that a run continued from a checkpoint does what the
+  // uninterrupted run did.
+  auto due_at = [&](long step, bool (Observer::*wants)() const) {
     if (step == info.last_step) return true;
     for (auto& o : observers_)
-      if (o->needs_sample() && o->every() > 0 && (step - info.first_step) % o->every() == 0) return true;
+      if (((*o).*wants)() && o->every() > 0 && (step - info.first_step) % o->every() == 0) return true;
     return false;
   };
-  struct EnergiesDueReset {  // the Problem outlives the run: computing energies is its default
+  struct DueReset {  // the Problem outlives the run: energies and velocities everywhere are its default
     Problem& problem;
-    ~EnergiesDueReset() { problem.energies_due = true; }
+    ~DueReset() { problem.energies_due = problem.velocities_due = true; }
   } reset{problem_};
   if (info.start_step == info.first_step) notify(true);
 
@@ -215,7 +217,8 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
     last_good.q = state.q, last_good.v = state.v;
     last_good.step = state.step, last_good.time = state.time;
     while (state.step < info.last_step) {
-      problem_.energies_due = energies_due_at(state.step + 1);
+      problem_.energies_due = due_at(state.step + 1, &Observer::needs_sample);
+      problem_.velocities_due = due_at(state.step + 1, &Observer::reads_velocities);
       report = integrator_.step(problem_, state);
       // Integrators move the atoms; the sites follow here, once, for output and checkpoints.
       problem_.force_field.place_sites(state.q, state.v);

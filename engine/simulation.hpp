@@ -60,6 +60,8 @@ class Observer {
   virtual long every() const = 0;
   // False for observers that only look at the step counter (the progress bar).
   virtual bool needs_sample() const { return true; }
+  // Whether what it observes includes the velocities (Problem::velocities_due).
+  virtual bool reads_velocities() const { return needs_sample(); }
   virtual void begin(const RunInfo&) {}
   virtual void observe(const RunInfo&, const State&, const Sample&) = 0;
   // Called only after a successful run.

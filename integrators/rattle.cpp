@@ -22,6 +22,7 @@ Rattle::Rattle(const IntegratorConfig& config)
 void Rattle::init(Problem& problem, State& state) {
   check_start(problem, state);
   evaluate_forces(problem, state, forces_);
+  projected_last_ = false;
 }
 
 void Rattle::sub_step(Problem& problem, State& state, double h, bool energies, StepReport& report) {
@@ -40,16 +41,50 @@ void Rattle::sub_step(Problem& problem, State& state, double h, bool energies, S
   }
   evaluate_forces(problem, state, forces_, energies);
   kick(inverse_mass, state.f, 0.5 * h, state.v);
-  constraints.project_velocities(state.q, state.v, inverse_mass);
 }
 
 StepReport Rattle::step(Problem& problem, State& state) {
   StepReport report;
+  if (velocities_untouched(problem, state)) state.v.swap(unprojected_);
+  projected_last_ = false;
   const std::size_t last = sub_steps_.size() - 1;
   for (std::size_t k = 0; k <= last; ++k)
     sub_step(problem, state, sub_steps_[k], k == last && problem.energies_due, report);
+  const Constraints& constraints = problem.constraints;
+  if (has_thermostat()) {
+    // The thermostat scales on-step velocities, and the dynamics go on from the scaled ones.
+    constraints.project_velocities(state.q, state.v, problem.inverse_mass);
+  } else if (problem.velocities_due && !constraints.empty()) {
+    unprojected_ = state.v;
+    constraints.project_velocities(state.q, state.v, problem.inverse_mass);
+    projected_ = state.v;
+    projected_last_ = true;
+  }
   thermostat_step(problem, state);
   return report;
+}
+
+bool Rattle::velocities_untouched(const Problem& problem, const State& state) const {
+  if (!projected_last_ || state.v.cols() != projected_.cols()) return false;
+  for (Eigen::Index i = 0; i < state.v.cols(); ++i)
+    if (problem.inverse_mass[i] > 0 && state.v.col(i) != projected_.col(i)) return false;
+  return true;
+}
+
+Carried Rattle::carried_state() const {
+  Carried c = ThermostattedIntegrator::carried_state();
+  if (projected_last_) c.put("rattle_unprojected_velocities", unprojected_);
+  return c;
+}
+
+void Rattle::restore(Problem& problem, const State& state, const Carried& carried) {
+  ThermostattedIntegrator::restore(problem, state, carried);
+  projected_last_ = carried.has("rattle_unprojected_velocities");
+  if (!projected_last_) return;
+  unprojected_ = carried.coords("rattle_unprojected_velocities");
+  if (unprojected_.cols() != state.v.cols())
+    throw std::runtime_error("checkpoint: entry \"rattle_unprojected_velocities\" has the wrong size");
+  projected_ = state.v;
 }
 
 }  // namespace vimd

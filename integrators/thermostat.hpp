@@ -84,6 +84,7 @@ class ThermostattedIntegrator : public Integrator {
   }
 
  protected:
+  bool has_thermostat() const { return thermostat_.has_value(); }
   // Rescales v_{n+1} (no-op without a thermostat).
   void thermostat_step(const Problem& problem, State& state) {
     if (thermostat_) thermostat_->apply(problem.system.mass, problem.system.degrees_of_freedom(), state.v);

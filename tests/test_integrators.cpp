@@ -336,6 +336,51 @@ TEST(ComposedRattle, KeepsConstraintsOnABranchedChain) {
   }
 }
 
+// Velocities are projected only where Problem::velocities_due: between, v keeps a part along the
+// constraint gradients, which the next position stage removes. Positions and the velocities seen
+// are those of projecting every step (to the constraint tolerance), and looking at a state or not
+// changes nothing at all: the steps after an observed one go on from v before its projection.
+TEST(Rattle, ProjectsOnlyTheVelocitiesSomeoneSees) {
+  const double tolerance = 1e-10;
+  const int steps = 40;
+  auto every = water_system(), sometimes = water_system(), at_end = water_system();
+  Rattle r_every(config("rattle", 0.002, tolerance)), r_sometimes(config("rattle", 0.002, tolerance)),
+      r_at_end(config("rattle", 0.002, tolerance));
+  every->start(r_every), sometimes->start(r_sometimes), at_end->start(r_at_end);
+  double unseen_residual = 0;
+  for (int n = 1; n <= steps; ++n) {
+    sometimes->problem->velocities_due = n % 7 == 0 || n == steps;
+    at_end->problem->velocities_due = n == steps;
+    r_every.step(*every->problem, every->state);
+    r_sometimes.step(*sometimes->problem, sometimes->state);
+    r_at_end.step(*at_end->problem, at_end->state);
+    if (n < steps)
+      unseen_residual = std::max(unseen_residual, at_end->constraints.max_velocity_residual(at_end->state.q, at_end->state.v));
+  }
+  EXPECT_GT(unseen_residual, 1e3 * tolerance);  // the projection was skipped
+  EXPECT_TRUE(sometimes->state.q == at_end->state.q);
+  EXPECT_TRUE(sometimes->state.v == at_end->state.v);
+  EXPECT_LE(at_end->constraints.max_velocity_residual(at_end->state.q, at_end->state.v), tolerance);
+  EXPECT_LT((at_end->state.q - every->state.q).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((at_end->state.v - every->state.v).cwiseAbs().maxCoeff(), 1e-6 * every->state.v.cwiseAbs().maxCoeff());
+}
+
+// Velocities set from outside after an observed step are taken as they are, not the kept ones.
+TEST(Rattle, VelocitiesSetAfterAnObservedStepAreTaken) {
+  auto kept = water_system(), fresh = water_system();
+  Rattle r_kept(config("rattle", 0.002)), r_fresh(config("rattle", 0.002));
+  kept->start(r_kept);
+  r_kept.step(*kept->problem, kept->state);  // observed: Problem::velocities_due by default
+  fresh->state = kept->state;
+  kept->state.v *= 0.5;
+  fresh->state.v *= 0.5;
+  r_fresh.init(*fresh->problem, fresh->state);
+  r_kept.step(*kept->problem, kept->state);
+  r_fresh.step(*fresh->problem, fresh->state);
+  EXPECT_TRUE(kept->state.q == fresh->state.q);
+  EXPECT_TRUE(kept->state.v == fresh->state.v);
+}
+
 // Each sub-step ends with the force the next one starts from: one force evaluation per sub-step.
 TEST(ComposedRattle, OneForceEvaluationPerSubStep) {
   for (const std::string& name : composition_names()) {

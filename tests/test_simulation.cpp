@@ -147,20 +147,23 @@ TEST(Simulation, WritesEnergySeriesWithTheDocumentedColumns) {
   std::fclose(sink);
 }
 
-// The loop asks for energies exactly where a sampling observer is due (and at the last step), and
-// leaves the Problem asking for them after the run.
-TEST(Simulation, EnergiesAreDueOnlyAtSampledSteps) {
+// The loop asks for energies exactly where a sampling observer is due, for on-step velocities
+// where any observer reading them is (the trajectory too), both at the last step; and leaves the
+// Problem asking for both after the run.
+TEST(Simulation, EnergiesAndVelocitiesAreDueOnlyAtObservedSteps) {
   class DueRecorder : public Observer {
    public:
-    explicit DueRecorder(std::vector<long>& due) : due_(due) {}
+    DueRecorder(std::vector<long>& due, std::vector<long>& velocities_due) : due_(due), velocities_due_(velocities_due) {}
     long every() const override { return 1; }
     bool needs_sample() const override { return false; }
     void observe(const RunInfo& info, const State& state, const Sample&) override {
-      if (state.step > info.first_step && info.problem.energies_due) due_.push_back(state.step);
+      if (state.step == info.first_step) return;
+      if (info.problem.energies_due) due_.push_back(state.step);
+      if (info.problem.velocities_due) velocities_due_.push_back(state.step);
     }
 
    private:
-    std::vector<long>& due_;
+    std::vector<long>&due_, &velocities_due_;
   };
   Fixture fx;
   Problem problem = fx.problem();
@@ -168,13 +171,16 @@ TEST(Simulation, EnergiesAreDueOnlyAtSampledSteps) {
   const fs::path dir = fs::temp_directory_path() / "vimd_test_simulation_due";
   fs::remove_all(dir);
   fs::create_directories(dir);
-  std::vector<long> due;
+  std::vector<long> due, velocities_due;
   Simulation sim(problem, integrator, 0.01);
   sim.add_observer(std::make_unique<EnergyWriter>(dir, 4));
-  sim.add_observer(std::make_unique<DueRecorder>(due));
+  sim.add_observer(std::make_unique<TrajectoryWriter>(dir, 5));
+  sim.add_observer(std::make_unique<DueRecorder>(due, velocities_due));
   sim.run(fx.state, 14);
   EXPECT_EQ(due, (std::vector<long>{4, 8, 12, 14}));
+  EXPECT_EQ(velocities_due, (std::vector<long>{4, 5, 8, 10, 12, 14}));
   EXPECT_TRUE(problem.energies_due);
+  EXPECT_TRUE(problem.velocities_due);
 }
 
 // A second run() of the same loop continues the state (what Python's sim.step(n) relies on):
