@@ -107,6 +107,11 @@ struct Layout {
     x.col(atom_i[p]) -= (w[atom_i[p]] * s) * r;
     x.col(atom_j[p]) += (w[atom_j[p]] * s) * r;
   }
+  // StepVelocity for the atoms of cluster c.
+  void set_step_velocity(int c, const Coords& q_ref, const Coords& q, const StepVelocity& velocity) const {
+    for (int k = atom_begin[c]; k < atom_begin[c + 1]; ++k)
+      velocity.v.col(atoms[k]) = (q.col(atoms[k]) - q_ref.col(atoms[k])) / velocity.h;
+  }
   // Entry factor of S = G W Gᵀ for positions p, r (p == r gives w_i + w_j).
   double coefficient(int p, int r, const double* w) const {
     double c = 0;
@@ -295,7 +300,7 @@ Layout::Triangle rigid_triangle(const Layout& L, const Layout::Cluster& cl);
 // SETTLE's position stage for every rigid triangle, in SIMD batches, each cluster's outcome
 // recorded in ws; a triangle SETTLE cannot take goes through solve_small_positions.
 void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const double* w, double tolerance,
-                      int max_iterations, Workspace& ws);
+                      int max_iterations, Workspace& ws, const StepVelocity* velocity);
 // The velocity projection of every rigid triangle, in SIMD batches: multipliers into ws.delta,
 // ws.singular cleared. A worksharing loop (schedule static, nowait) for inside a parallel region.
 void project_triangle_velocities(const Layout& L, const Coords& q, Coords& v, const double* w, Workspace& ws);

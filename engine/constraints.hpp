@@ -21,6 +21,14 @@ struct Workspace;
 // Geometry, factorisation and the solves with S in engine/constraints.cpp, the SHAKE/RATTLE
 // stages (solve_positions, project_velocities) in engine/shake_rattle_solve.cpp, their rigid-water
 // special case SETTLE in engine/settle.cpp. An empty weights vector means all ones.
+// The half-step velocity a position stage leaves, for solve_positions: v_i = (q_i − q_ref,i)/h for
+// every constrained atom i, written as its cluster is solved (the other atoms keep theirs: the
+// drift q = q_ref + h v already carried them).
+struct StepVelocity {
+  Coords& v;
+  double h;
+};
+
 class Constraints {
  public:
   Constraints();
@@ -95,10 +103,10 @@ class Constraints {
   // relative deviation, worst constraint with its 1-based atoms) when it cannot. lambda_out
   // (optional) receives the accumulated multipliers, max_deviation_out (optional) the final
   // maximum relative deviation (saves a max_relative_deviation pass). Rigid water goes through
-  // SETTLE where the multipliers are not asked for.
+  // SETTLE where the multipliers are not asked for. velocity (optional): see StepVelocity.
   int solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& weights, double tolerance, long step,
                       int max_iterations = 500, Eigen::VectorXd* lambda_out = nullptr,
-                      double* max_deviation_out = nullptr) const;
+                      double* max_deviation_out = nullptr, const StepVelocity* velocity = nullptr) const;
   // v ← v − W Gᵀ S⁻¹ G v at q: the W-orthogonal projection onto the tangent space
   // (the RATTLE velocity stage when W = M⁻¹). mu_out (optional) receives the multipliers.
   void project_velocities(const Coords& q, Coords& v, const Eigen::VectorXd& weights,

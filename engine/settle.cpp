@@ -22,15 +22,10 @@ inline void pad_batch(double* in, int n_fields, int count) {
 // same equations as solve_small_positions (displacements along the q_ref bonds, weighted by w)
 // for a rigid isosceles triangle whose two base atoms have equal weights: the centre of mass
 // stays, each atom keeps its height above the q_ref plane, and one in-plane rotation is fixed by
-// the torque condition. In three parts: settle_prepare writes lane k of a batch's input (or
-// finds SETTLE does not apply: q_ref off the constraints, unequal weights; or that q already
-// satisfies them), the kernel (settle_kernels.cpp) rotates the whole batch, settle_finish checks
-// and writes lane k's result. Where a part fails, q is untouched and Newton solves the cluster.
-struct SettlePending {
-  int cluster;
-  Vec3 apex1, image_b, image_c;
-};
-enum class Settle { not_applicable, already_satisfied, prepared };
+// the torque condition. The kernel (settle_kernels.cpp) takes a batch's positions as stored and
+// also finds where SETTLE does not apply (q_ref off the constraints, unequal weights) and where q
+// already satisfies them; settle_finish records each molecule's outcome. Where SETTLE does not
+// apply or its result misses the tolerance, q is untouched and Newton solves the cluster.
 
 // The outcome of a triangle whose sides apex–h1, apex–h2 and base deviate by `deviation` (relative);
 // false where one deviates by more than the tolerance (also NaN: a displacement too large for the
@@ -49,54 +44,35 @@ bool settle_outcome(const Layout& L, const Layout::Cluster& cl, const double dev
   return true;
 }
 
-Settle settle_prepare(const Layout& L, const Layout::Cluster& cl, const Coords& q_ref, const Coords& q,
-                      const double* w, double tolerance, double* in, int k, SettlePending& pending,
-                      ClusterOutcome& out) {
-  const Layout::Triangle& t = L.triangles[cl.slot];
-  if (!t.valid || w[t.h1] != w[t.h2] || !(w[t.apex] > 0) || !(w[t.h1] > 0)) return Settle::not_applicable;
-  // Bond vectors from the apex, with the periodic image of q_ref (as solve_small_positions).
-  const Vec3 raw_b = q_ref.col(t.h1) - q_ref.col(t.apex), raw_c = q_ref.col(t.h2) - q_ref.col(t.apex);
-  const Vec3 b0 = L.box.minimum_image(raw_b), c0 = L.box.minimum_image(raw_c);
-  if (!within(b0.squaredNorm(), t.d_side, tolerance) || !within(c0.squaredNorm(), t.d_side, tolerance) ||
-      !within((c0 - b0).squaredNorm(), t.d_base, tolerance))
-    return Settle::not_applicable;
-  pending.image_b = b0 - raw_b;
-  pending.image_c = c0 - raw_c;
-  pending.apex1 = q.col(t.apex);
-  const Vec3 b1_apex = q.col(t.h1) - pending.apex1 + pending.image_b;
-  const Vec3 c1_apex = q.col(t.h2) - pending.apex1 + pending.image_c;
-  // Already on the constraints: left exactly as it is, as Newton leaves it.
-  if (within(b1_apex.squaredNorm(), t.d_side, tolerance) && within(c1_apex.squaredNorm(), t.d_side, tolerance) &&
-      within((c1_apex - b1_apex).squaredNorm(), t.d_base, tolerance)) {
-    const double deviation[3] = {relative_deviation(b1_apex.squaredNorm(), t.d_side),
-                                 relative_deviation(c1_apex.squaredNorm(), t.d_side),
-                                 relative_deviation((c1_apex - b1_apex).squaredNorm(), t.d_base)};
-    if (settle_outcome(L, cl, deviation, 0, tolerance, out)) return Settle::already_satisfied;
-  }
-  const double base_weight = w[t.apex] / (w[t.h1] + 2 * w[t.apex]);  // m_H / M
-  const double rc = 0.5 * t.d_base, height = std::sqrt(t.d_side * t.d_side - rc * rc);
-  const double ra = 2 * base_weight * height;
-  const double fields[kSettleInFields] = {b0.x(),      b0.y(),      b0.z(),      c0.x(),      c0.y(),
-                                          c0.z(),      b1_apex.x(), b1_apex.y(), b1_apex.z(), c1_apex.x(),
-                                          c1_apex.y(), c1_apex.z(), base_weight, ra,          height - ra,
-                                          rc,          t.d_side,    t.d_base};
-  for (int f = 0; f < kSettleInFields; ++f) in[f * kSettleBatch + k] = fields[f];
-  return Settle::prepared;
+void settle_prepare(const Layout::Triangle& t, const Coords& q_ref, const Coords& q, const double* w,
+                    double* in, int k) {
+  const int atoms[3] = {t.apex, t.h1, t.h2};
+  for (int a = 0; a < 3; ++a)
+    for (int d = 0; d < 3; ++d) {
+      in[(kRefAx + 3 * a + d) * kSettleBatch + k] = q_ref(d, atoms[a]);
+      in[(kQAx + 3 * a + d) * kSettleBatch + k] = q(d, atoms[a]);
+    }
+  in[kWeightA * kSettleBatch + k] = w[t.apex];
+  in[kWeightB * kSettleBatch + k] = w[t.h1];
+  in[kWeightC * kSettleBatch + k] = w[t.h2];
+  in[kSide * kSettleBatch + k] = t.d_side;
+  in[kBase * kSettleBatch + k] = t.d_base;
 }
 
-bool settle_finish(const Layout& L, const Layout::Cluster& cl, const SettlePending& pending, const double* result,
-                   int k, Coords& q, double tolerance, ClusterOutcome& out) {
-  const Layout::Triangle& t = L.triangles[cl.slot];
-  auto at = [&](int x) {
-    return Vec3(result[x * kSettleBatch + k], result[(x + 1) * kSettleBatch + k], result[(x + 2) * kSettleBatch + k]);
-  };
+// Lane k's outcome; false where Newton must solve the cluster (q then untouched).
+bool settle_finish(const Layout& L, const Layout::Cluster& cl, const double* result, int k, Coords& q,
+                   double tolerance, ClusterOutcome& out) {
+  const auto status = static_cast<SettleStatus>(result[kStatus * kSettleBatch + k]);
+  if (status == SettleStatus::not_applicable) return false;
   const double deviation[3] = {result[kDeviationAB * kSettleBatch + k], result[kDeviationAC * kSettleBatch + k],
                                result[kDeviationBC * kSettleBatch + k]};
-  if (!settle_outcome(L, cl, deviation, 1, tolerance, out)) return false;
-  const Vec3 a3 = at(kAx), b3 = at(kBx), c3 = at(kCx);
-  q.col(t.apex) = pending.apex1 + a3;
-  q.col(t.h1) = pending.apex1 + b3 - pending.image_b;
-  q.col(t.h2) = pending.apex1 + c3 - pending.image_c;
+  const bool rotated = status == SettleStatus::rotated;
+  if (!settle_outcome(L, cl, deviation, rotated ? 1 : 0, tolerance, out)) return false;
+  if (!rotated) return true;
+  const Layout::Triangle& t = L.triangles[cl.slot];
+  const int atoms[3] = {t.apex, t.h1, t.h2};
+  for (int a = 0; a < 3; ++a)
+    for (int d = 0; d < 3; ++d) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
   return true;
 }
 
@@ -160,35 +136,27 @@ Layout::Triangle rigid_triangle(const Layout& L, const Layout::Cluster& cl) {
 }
 
 void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const double* w, double tolerance,
-                      int max_iterations, Workspace& ws) {
-  auto newton = [&](const Layout::Cluster& cl) {
-    return solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin);
-  };
+                      int max_iterations, Workspace& ws, const StepVelocity* velocity) {
   const SettleKernel kernel = simd::settle_kernel();
+  const SettleParams params{tolerance, {L.box.length[0], L.box.length[1], L.box.length[2]}};
   const int n_triangles = static_cast<int>(L.triangle_clusters.size());
   const int n_batches = (n_triangles + kSettleBatch - 1) / kSettleBatch;
 #pragma omp parallel for schedule(guided) if (L.n_constraints() > kParallelMin)
   for (int batch = 0; batch < n_batches; ++batch) {
     double in[kSettleInFields * kSettleBatch], result[kSettleOutFields * kSettleBatch];
-    SettlePending pending[kSettleBatch];
-    int count = 0;
-    for (int k = batch * kSettleBatch; k < std::min(n_triangles, (batch + 1) * kSettleBatch); ++k) {
-      const int c = L.triangle_clusters[k];
-      ClusterOutcome out;
-      switch (settle_prepare(L, L.clusters[c], q_ref, q, w, tolerance, in, count, pending[count], out)) {
-        case Settle::prepared: pending[count++].cluster = c; break;
-        case Settle::already_satisfied: ws.record(c, out); break;
-        case Settle::not_applicable: ws.record(c, newton(L.clusters[c])); break;
-      }
-    }
-    if (count == 0) continue;
+    const int first = batch * kSettleBatch, count = std::min(n_triangles - first, kSettleBatch);
+    for (int k = 0; k < count; ++k)
+      settle_prepare(L.triangles[L.clusters[L.triangle_clusters[first + k]].slot], q_ref, q, w, in, k);
     pad_batch(in, kSettleInFields, count);
-    kernel(count, in, result);
+    kernel(count, params, in, result);
     for (int k = 0; k < count; ++k) {
-      const auto& cl = L.clusters[pending[k].cluster];
+      const int c = L.triangle_clusters[first + k];
+      const Layout::Cluster& cl = L.clusters[c];
       ClusterOutcome out;
-      if (!settle_finish(L, cl, pending[k], result, k, q, tolerance, out)) out = newton(cl);
-      ws.record(pending[k].cluster, out);
+      if (!settle_finish(L, cl, result, k, q, tolerance, out))
+        out = solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin);
+      ws.record(c, out);
+      if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
     }
   }
 }

@@ -29,14 +29,52 @@ HWY_INLINE V3 cross(const V3& a, const V3& b) {
 }
 HWY_INLINE V3 normalized(const V3& a) { return (1.0 / simd_sqrt(dot(a, a))) * a; }
 
-void settle_batch(int count, const double* in, double* out) {
+// Minimum image along one axis of length L (0: not periodic), as Box::minimum_image.
+HWY_INLINE V minimum_image(V d, double length) {
+  if (!(length > 0)) return d;
+  const SimdTag tag;
+  const auto far = hn::Gt(simd_abs(d).v, hn::Set(tag, 0.5 * length));
+  return {hn::IfThenElse(far, (d - length * V{hn::Round((d / length).v)}).v, d.v)};
+}
+HWY_INLINE V3 minimum_image(const V3& d, const double* box) {
+  return {minimum_image(d.x, box[0]), minimum_image(d.y, box[1]), minimum_image(d.z, box[2])};
+}
+// r² inside [(d(1 − tol))², (d(1 + tol))²], as constraint_internals::within.
+HWY_INLINE auto within(V r2, V d, double tolerance) {
+  const V lo = d * (1 - tolerance), hi = d * (1 + tolerance);
+  return hn::And(hn::Ge(r2.v, (lo * lo).v), hn::Le(r2.v, (hi * hi).v));
+}
+HWY_INLINE V deviation(const V3& r, V length) { return simd_abs(simd_sqrt(dot(r, r)) - length) / length; }
+
+void settle_batch(int count, const SettleParams& params, const double* in, double* out) {
+  const SimdTag tag;
   const int lanes = V::lanes();
+  const double tolerance = params.tolerance;
   auto field = [&](int f, int k) { return simd_load(in + f * kSettleBatch + k); };
+  auto point = [&](int f, int k) { return V3{field(f, k), field(f + 1, k), field(f + 2, k)}; };
   for (int k = 0; k < count; k += lanes) {
-    const V3 b0{field(kB0x, k), field(kB0y, k), field(kB0z, k)}, c0{field(kC0x, k), field(kC0y, k), field(kC0z, k)};
-    const V3 b1_apex{field(kB1x, k), field(kB1y, k), field(kB1z, k)};
-    const V3 c1_apex{field(kC1x, k), field(kC1y, k), field(kC1z, k)};
-    const V base_weight = field(kBaseWeight, k), ra = field(kRa, k), rb = field(kRb, k), rc = field(kRc, k);
+    const V3 ref_a = point(kRefAx, k), q_a = point(kQAx, k);
+    const V3 raw_b = point(kRefBx, k) - ref_a, raw_c = point(kRefCx, k) - ref_a;
+    const V3 b0 = minimum_image(raw_b, params.box), c0 = minimum_image(raw_c, params.box);
+    const V3 image_b = b0 - raw_b, image_c = c0 - raw_c;
+    const V w_a = field(kWeightA, k), w_b = field(kWeightB, k), side = field(kSide, k), base = field(kBase, k);
+    // SETTLE needs equal base weights, positive weights and q_ref on the constraints.
+    const auto weights_fit = hn::And(hn::Eq(w_b.v, field(kWeightC, k).v),
+                                     hn::And(hn::Gt(w_a.v, hn::Zero(tag)), hn::Gt(w_b.v, hn::Zero(tag))));
+    const auto reference_fits = hn::And(hn::And(within(dot(b0, b0), side, tolerance), within(dot(c0, c0), side, tolerance)),
+                                        within(dot(c0 - b0, c0 - b0), base, tolerance));
+    const auto applicable = hn::And(weights_fit, reference_fits);
+    // The unconstrained bonds from the apex, in the reference's images.
+    const V3 b1_apex = point(kQBx, k) - q_a + image_b, c1_apex = point(kQCx, k) - q_a + image_c;
+    // Already on the constraints: left exactly as it is, as Newton leaves it.
+    const auto satisfied =
+        hn::And(applicable, hn::And(hn::And(within(dot(b1_apex, b1_apex), side, tolerance),
+                                            within(dot(c1_apex, c1_apex), side, tolerance)),
+                                    within(dot(c1_apex - b1_apex, c1_apex - b1_apex), base, tolerance)));
+
+    const V base_weight = w_a / (w_b + 2.0 * w_a);  // m_H / M
+    const V rc = 0.5 * base, height = simd_sqrt(side * side - rc * rc);
+    const V ra = 2.0 * base_weight * height, rb = height - ra;
     // Body frame: centre of mass at the origin, apex at (0, ra), base atoms at (∓rc, −rb).
     const V3 com = base_weight * (b1_apex + c1_apex);  // relative to the unconstrained apex
     const V3 a1 = V3{-com.x, -com.y, -com.z}, b1 = b1_apex - com, c1 = c1_apex - com;
@@ -63,17 +101,26 @@ void settle_batch(int count, const double* in, double* out) {
     const V3 a3 = lab(-(a2y * sin_theta), a2y * cos_theta, a1z);
     const V3 b3 = lab(b2x * cos_theta - b2y * sin_theta, b2x * sin_theta + b2y * cos_theta, b1z);
     const V3 c3 = lab(-(b2x * cos_theta) - c2y * sin_theta, -(b2x * sin_theta) + c2y * cos_theta, c1z);
-    const V3* result[3] = {&a3, &b3, &c3};
+    // Back in the stored images of q.
+    const V3 new_a = q_a + a3, new_b = q_a + b3 - image_b, new_c = q_a + c3 - image_c;
+    const V3* result[3] = {&new_a, &new_b, &new_c};
     for (int a = 0; a < 3; ++a) {
-      simd_store(out + (3 * a) * kSettleBatch + k, result[a]->x);
-      simd_store(out + (3 * a + 1) * kSettleBatch + k, result[a]->y);
-      simd_store(out + (3 * a + 2) * kSettleBatch + k, result[a]->z);
+      simd_store(out + (kNewAx + 3 * a) * kSettleBatch + k, result[a]->x);
+      simd_store(out + (kNewAx + 3 * a + 1) * kSettleBatch + k, result[a]->y);
+      simd_store(out + (kNewAx + 3 * a + 2) * kSettleBatch + k, result[a]->z);
     }
-    const V side = field(kSide, k), base = field(kBase, k);
-    auto deviation = [&](const V3& r, V length) { return simd_abs(simd_sqrt(dot(r, r)) - length) / length; };
-    simd_store(out + kDeviationAB * kSettleBatch + k, deviation(b3 - a3, side));
-    simd_store(out + kDeviationAC * kSettleBatch + k, deviation(c3 - a3, side));
-    simd_store(out + kDeviationBC * kSettleBatch + k, deviation(c3 - b3, base));
+    // The sides of q where it stays, of the rotated molecule elsewhere.
+    auto pick = [&](const V3& of_q, const V3& rotated) {
+      return V3{V{hn::IfThenElse(satisfied, of_q.x.v, rotated.x.v)}, V{hn::IfThenElse(satisfied, of_q.y.v, rotated.y.v)},
+                V{hn::IfThenElse(satisfied, of_q.z.v, rotated.z.v)}};
+    };
+    simd_store(out + kDeviationAB * kSettleBatch + k, deviation(pick(b1_apex, b3 - a3), side));
+    simd_store(out + kDeviationAC * kSettleBatch + k, deviation(pick(c1_apex, c3 - a3), side));
+    simd_store(out + kDeviationBC * kSettleBatch + k, deviation(pick(c1_apex - b1_apex, c3 - b3), base));
+    auto status = [&](SettleStatus s) { return hn::Set(tag, static_cast<double>(s)); };
+    simd_store(out + kStatus * kSettleBatch + k,
+               V{hn::IfThenElse(satisfied, status(SettleStatus::already_satisfied),
+                                hn::IfThenElseZero(applicable, status(SettleStatus::rotated)))});
   }
 }
 

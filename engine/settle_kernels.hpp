@@ -6,16 +6,23 @@ namespace vimd {
 
 // Structure of arrays: field f of molecule k at [f * kSettleBatch + k].
 inline constexpr int kSettleBatch = 64;
-// In, per molecule, in the apex-centred frame: the reference bonds apex→h1 (b0) and apex→h2 (c0),
-// the unconstrained bonds (b1, c1), the mass fraction m_H / M of each base atom, the body frame's
-// apex height ra, base depth rb and half base rc, and the side and base lengths.
-enum SettleIn { kB0x, kB0y, kB0z, kC0x, kC0y, kC0z, kB1x, kB1y, kB1z, kC1x, kC1y, kC1z, kBaseWeight, kRa, kRb, kRc,
-                kSide, kBase, kSettleInFields };
-// Out: the constrained positions of apex, h1 and h2 relative to the unconstrained apex, and the
-// relative deviations of their sides apex–h1, apex–h2 and base (NaN where the rotation failed).
-enum SettleOut { kAx, kAy, kAz, kBx, kBy, kBz, kCx, kCy, kCz, kDeviationAB, kDeviationAC, kDeviationBC,
-                 kSettleOutFields };
-using SettleKernel = void (*)(int count, const double* in, double* out);
+// In, per molecule: the reference positions (q_ref) and the unconstrained positions (q) of the apex,
+// h1 and h2 as they are stored (not imaged), the three atoms' weights, and the side and base lengths.
+enum SettleIn { kRefAx, kRefAy, kRefAz, kRefBx, kRefBy, kRefBz, kRefCx, kRefCy, kRefCz,
+                kQAx, kQAy, kQAz, kQBx, kQBy, kQBz, kQCx, kQCy, kQCz,
+                kWeightA, kWeightB, kWeightC, kSide, kBase, kSettleInFields };
+// Out: what became of each molecule (SettleStatus), the new positions of apex, h1 and h2 (stored
+// coordinates, same images as q; meaningful where rotated), and the relative deviations of their
+// sides apex–h1, apex–h2 and base (of q where already satisfied; NaN where the rotation failed).
+enum SettleOut { kNewAx, kNewAy, kNewAz, kNewBx, kNewBy, kNewBz, kNewCx, kNewCy, kNewCz,
+                 kDeviationAB, kDeviationAC, kDeviationBC, kStatus, kSettleOutFields };
+// not_applicable: q_ref off the constraints, or weights SETTLE cannot take (Newton solves those).
+enum class SettleStatus { not_applicable = 0, already_satisfied = 1, rotated = 2 };
+struct SettleParams {
+  double tolerance;
+  double box[3];  // periodic lengths, 0 where not periodic
+};
+using SettleKernel = void (*)(int count, const SettleParams& params, const double* in, double* out);
 
 // The velocity projection of a batch of rigid 3-site molecules (constraints a = 0, 1, 2), in the
 // same layout. In: the bond vectors r_a, the rates r_a·(v_i − v_j) and the symmetric weight factors

@@ -127,7 +127,7 @@ ClusterOutcome constraint_internals::solve_small_positions(const Layout& L, cons
 
 int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::VectorXd& weights, double tolerance,
                                  long step, int max_iterations, Eigen::VectorXd* lambda_out,
-                                 double* max_deviation_out) const {
+                                 double* max_deviation_out, const StepVelocity* velocity) const {
   if (lambda_out) lambda_out->setZero(size());
   if (max_deviation_out) *max_deviation_out = 0;
   if (empty()) return 0;
@@ -183,7 +183,7 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
   // SETTLE gives positions, not multipliers: only where nobody asks for them. Every other
   // cluster goes through Newton.
   const bool by_settle = !lambda_out && !L.triangle_clusters.empty();
-  if (by_settle) settle_positions(L, q_ref, q, w, tolerance, max_iterations, ws);
+  if (by_settle) settle_positions(L, q_ref, q, w, tolerance, max_iterations, ws, velocity);
 #pragma omp parallel for schedule(guided) if (size() > kParallelMin)
   for (int c = 0; c < nc; ++c) {
     const auto& cl = L.clusters[c];
@@ -191,6 +191,7 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
     ws.record(c, cl.kind == Kind::Small ? solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations,
                                                                 ws.lambda.data() + cl.begin)
                                         : solve_dynamic(cl));
+    if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
   }
 
   // Report the failed cluster that is furthest off; a diverged (NaN) one first.

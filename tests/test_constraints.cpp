@@ -291,6 +291,34 @@ TEST(Constraints, SettleMatchesNewtonOnRigidWater) {
   simd::use_target("");
 }
 
+// A position stage asked for the step velocity leaves v_i = (q_i − q_ref,i)/h on every constrained
+// atom (SETTLE's waters, Newton's chains, and a water SETTLE hands to Newton) and v untouched elsewhere.
+TEST(Constraints, StepVelocityIsTheConstrainedDisplacementOverTheStep) {
+  Zoo z = make_zoo();
+  std::mt19937_64 rng(5);
+  const int n = z.system.n_atoms() + 2;  // two free atoms at the end
+  Coords q_ref(3, n);
+  q_ref << z.q, Coords::Constant(3, 2, 1.0);
+  Eigen::VectorXd w(n);
+  w << z.inverse_mass, 0.1, 0.1;
+  w[2] *= 1.5;  // the first water's hydrogens unequal: Newton's
+  const Constraints constraints(z.system.constraints, n, z.system.box);
+  std::vector<char> constrained(n, 0);
+  for (const Constraint& c : z.system.constraints) constrained[c.i] = constrained[c.j] = 1;
+  const double h = 0.002;
+  const Coords v_start = random_coords(n, 1.0, rng);
+  Coords v = v_start, q = q_ref + h * v_start;
+  const StepVelocity half_step{v, h};
+  constraints.solve_positions(q_ref, q, w, 1e-12, 0, 100, nullptr, nullptr, &half_step);
+  EXPECT_LE(constraints.max_relative_deviation(q), 1e-12);
+  for (int i = 0; i < n; ++i) {
+    if (constrained[i])
+      EXPECT_EQ(v.col(i), Vec3((q.col(i) - q_ref.col(i)) / h)) << "atom " << i;
+    else
+      EXPECT_EQ(v.col(i), v_start.col(i)) << "atom " << i;
+  }
+}
+
 TEST(Constraints, SolvePositionsOnSatisfiedConstraintsDoesNothing) {
   Zoo z = make_zoo();
   Coords q = z.q;
