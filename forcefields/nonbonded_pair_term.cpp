@@ -375,7 +375,7 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
       w, visit.list.entries.size(), slots.thread_buffers,
       [&] { list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
       [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
-        for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+        for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
           pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
         });
         for (int b = t; b < n_blocks; b += nt)
@@ -446,7 +446,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
         list.pack_vectors(u, slots.ux.data(), slots.uy.data(), slots.uz.data());
       },
       [&](int t, int nt, Real* ox, Real* oy, Real* oz) {
-        for_thread_chunks(list.n_halves(), t, nt, [&](int h0, int h1) {
+        for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
           if (find_masks) mask_kernel(view, h0, h1, INFINITY, w.list_masks.data());
           pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });

@@ -99,7 +99,7 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
     else
       list_.pack_positions(q, x_.data(), y_.data(), z_.data());
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+    for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
       if (single)
         float_kernel(float_view, h0, h1, skip_from, narrow_masks_.data());
       else
@@ -117,7 +117,7 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
       std::partial_sum(chunk_kept.begin(), chunk_kept.end(), chunk_kept.begin());
       to.entries.resize(chunk_kept.back());
     }
-    for_thread_chunks(n_halves, t, nt, [&](int h0, int h1) {
+    for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
       const int offset = chunk_kept[h0 / kHalfChunk], end = chunk_kept[h0 / kHalfChunk + 1];
       // Without a branch (which entries stay is unpredictable): every entry is written, and the
       // next one overwrites it unless it stays; the loop ends with the chunk's last kept entry, so

@@ -23,23 +23,35 @@
 
 namespace vimd {
 
-// The pair loop's unit of work: i-halves in chunks of kHalfChunk, dealt to the threads in rounds of
-// nt chunks, back and forth (thread 0 first, then last, in alternate rounds). Early halves (a
-// cluster paired with all later ones) cost more per entry than late ones, so contiguous blocks
-// would leave threads waiting, and a deal always in the same direction would give thread 0 the
-// costlier chunk of every round. It depends only on the thread count, as the summation order must.
+// The pair loop's unit of work: i-halves in chunks of kHalfChunk. Each thread takes a contiguous
+// run of chunks holding about 1/nt of the list's entries, so that the threads finish together
+// (early halves, paired with all later clusters, hold more entries than late ones) and each works
+// on its own part of the box. It depends only on the list and the thread count, as the summation
+// order must.
 constexpr int kHalfChunk = 16;
 
 inline int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
 
-// f(h0, h1) for the chunks of thread t of nt.
+// f(h0, h1) for the chunks of thread t of nt; half_start: the list's entries by half (n_halves + 1).
 template <class F>
-void for_thread_chunks(int n_halves, int t, int nt, F&& f) {
+void for_thread_chunks(std::span<const int> half_start, int t, int nt, F&& f) {
+  const int n_halves = static_cast<int>(half_start.size()) - 1;
   const int chunks = half_chunks(n_halves);
-  for (int round_start = 0; round_start < chunks; round_start += nt) {
-    const int c = round_start + ((round_start / nt) % 2 == 0 ? t : nt - 1 - t);
-    if (c < chunks) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
-  }
+  // The first chunk that starts at or after entry k/nt of the list.
+  auto first_chunk = [&](int k) {
+    const long target = static_cast<long>(half_start[n_halves]) * k / nt;
+    int lo = 0, hi = chunks;
+    while (lo < hi) {
+      const int mid = (lo + hi) / 2;
+      if (half_start[mid * kHalfChunk] < target)
+        lo = mid + 1;
+      else
+        hi = mid;
+    }
+    return lo;
+  };
+  const int end = t + 1 == nt ? chunks : first_chunk(t + 1);
+  for (int c = t == 0 ? 0 : first_chunk(t); c < end; ++c) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
 }
 
 // Cluster-pair entries by i-half: entries[half_start[h] .. half_start[h + 1]), and an id that
