@@ -18,6 +18,7 @@
 #endif
 
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -213,6 +214,7 @@ template <class Real>
 HWY_INLINE SimdVec<Real> simd_sqrt(SimdVec<Real> x) {
   return {hn::Sqrt(x.v)};
 }
+HWY_INLINE double simd_sqrt(double x) { return std::sqrt(x); }
 template <class Real>
 HWY_INLINE SimdVec<Real> simd_abs(SimdVec<Real> x) {
   return {hn::Abs(x.v)};

@@ -154,18 +154,35 @@ HWY_INLINE void ewald_hessian(const EwaldRealSpace& e, T qq, T rinv, T r2, T& a,
   if constexpr (M == EwaldModifier::potential_switch) apply_switch_hessian(e.sw, qq * erfc_r, r2 * rinv, rinv, a, b);
 }
 
+// erf(x) and e^(−x²): the library's in double, from Cody's erfc lane by lane.
+inline void ewald_erf(double x, double& erf, double& gaussian) {
+  erf = std::erf(x);
+  gaussian = std::exp(-x * x);
+}
+template <class V>
+HWY_INLINE void ewald_erf(V x, V& erf, V& gaussian) {
+  V erfc;
+  ewald_erfc(x, erfc, gaussian);
+  erf = 1.0 - erfc;
+}
+
 // Excluded pair inside the cut-off: φ = −qq erf(βr)/r, taking back what the mesh counts of it.
 // Its force factor per unit qq, (G − erf(βr)/r)/r², G = 2β/√π e^(−β²r²); sets erf(βr)/r and G.
-inline double ewald_excluded_slope(const EwaldRealSpace& e, double r2, double& erf_r, double& gauss) {
-  const double r = std::sqrt(r2);
-  erf_r = std::erf(e.beta * r) / r;
-  gauss = e.beta * M_2_SQRTPI * std::exp(-e.beta * e.beta * r2);
+// On double or SimdDouble.
+template <class T>
+inline T ewald_excluded_slope(const EwaldRealSpace& e, T r2, T& erf_r, T& gauss) {
+  const T r = simd_sqrt(r2);
+  T erf;
+  ewald_erf(e.beta * r, erf, gauss);
+  erf_r = erf / r;
+  gauss = (e.beta * M_2_SQRTPI) * gauss;
   return (gauss - erf_r) / r2;
 }
-inline void ewald_excluded_energy_force(const EwaldRealSpace& e, double qq, double r2, double& v, double& g) {
-  double erf_r, gauss;
+template <class T>
+inline void ewald_excluded_energy_force(const EwaldRealSpace& e, T qq, T r2, T& v, T& g) {
+  T erf_r, gauss;
   g = qq * ewald_excluded_slope(e, r2, erf_r, gauss);
-  v = -qq * erf_r;
+  v = -(qq * erf_r);
 }
 inline void ewald_excluded_hessian(const EwaldRealSpace& e, double qq, double r2, double& a, double& b) {
   double erf_r, gauss;
@@ -174,16 +191,14 @@ inline void ewald_excluded_hessian(const EwaldRealSpace& e, double qq, double r2
   b = qq * (3 * slope + 2 * e.beta * e.beta * gauss) / r2;
 }
 
-// The excluded-pair terms of slots i and j at distance² r2 < cutoff², as the pair loop calls them.
-template <class Real>
-inline void excluded_energy_force(const EwaldRealSpace& e, const PairViewOf<Real>& d, int i, int j, double r2,
-                                  double& v, double& g) {
-  ewald_excluded_energy_force(e, e.prefactor * d.charge[i] * d.charge[j], r2, v, g);
+// The excluded-pair terms as the pair loop calls them: at distance² r2 < cutoff², for the charge
+// product q_i q_j; the energy and force on double or SimdDouble, the Hessian on double.
+template <class T>
+inline void excluded_energy_force(const EwaldRealSpace& e, T charge_product, T r2, T& v, T& g) {
+  ewald_excluded_energy_force(e, e.prefactor * charge_product, r2, v, g);
 }
-template <class Real>
-inline void excluded_hessian(const EwaldRealSpace& e, const PairViewOf<Real>& d, int i, int j, double r2, double& a,
-                             double& b) {
-  ewald_excluded_hessian(e, e.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+inline void excluded_hessian(const EwaldRealSpace& e, double charge_product, double r2, double& a, double& b) {
+  ewald_excluded_hessian(e, e.prefactor * charge_product, r2, a, b);
 }
 
 // The i atoms' charges, times f/eps_r, per vector of rows.

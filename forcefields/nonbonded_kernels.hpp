@@ -69,6 +69,14 @@ using HessianKernel = void (*)(const PairView&, const double* ux, const double* 
 using SingleHessianKernel = void (*)(const PairViewOf<float>&, const float* ux, const float* uy, const float* uz,
                                      const std::uint32_t* masks, int h0, int h1, float* ox, float* oy, float* oz);
 
+// The excluded pairs [p0, p1) of a list: what the configured forms still count of those inside the
+// cut-off (reaction field: k_rf r² − c_rf; Ewald: −erf(βr)/r), in double precision from the
+// view's positions, added to force buffers of the view's precision; their energies are added to
+// energies[PairEnergy].
+template <class Real>
+using ExcludedKernelOf = void (*)(const PairViewOf<Real>&, const NeighborList::ExcludedPair* pairs, double cutoff2,
+                                  int p0, int p1, Real* fx, Real* fy, Real* fz, double* energies);
+
 namespace simd {
 
 // The kernels of the pair forms `forms` configures (their variants, and one switch for the vdw
@@ -79,6 +87,8 @@ MaskKernel mask_kernel();
 SingleMaskKernel single_mask_kernel();
 HessianKernel hessian_kernel(const PairFormConstants& forms);
 SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms);
+ExcludedKernelOf<double> excluded_kernel();
+ExcludedKernelOf<float> single_excluded_kernel();
 
 // The target the kernels run on (e.g. "AVX2", "AVX3" = AVX-512) and its vector width in doubles.
 std::string target_name();

@@ -19,6 +19,7 @@ HessianKernel HessianKernelFor(const PairFormConstants& forms) {
   return hessian_kernel_among<double>(forms, Combinations{});
 }
 MaskKernel MaskKernelFor() { return mask_halves<double>; }
+ExcludedKernelOf<double> ExcludedKernelFor() { return excluded_pairs<double>; }
 std::int64_t Target() { return HWY_TARGET; }
 int Lanes() { return SimdDouble::lanes(); }
 
@@ -34,6 +35,7 @@ namespace vimd {
 HWY_EXPORT(ForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
 HWY_EXPORT(MaskKernelFor);
+HWY_EXPORT(ExcludedKernelFor);
 HWY_EXPORT(Target);
 HWY_EXPORT(Lanes);
 
@@ -48,6 +50,8 @@ HessianKernel hessian_kernel(const PairFormConstants& forms) {
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
+
+ExcludedKernelOf<double> excluded_kernel() { return HWY_DYNAMIC_DISPATCH(ExcludedKernelFor)(); }
 
 std::string target_name() { return hwy::TargetName(HWY_DYNAMIC_DISPATCH(Target)()); }
 int lanes() { return HWY_DYNAMIC_DISPATCH(Lanes)(); }

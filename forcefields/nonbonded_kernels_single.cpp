@@ -19,6 +19,7 @@ SingleHessianKernel SingleHessianKernelFor(const PairFormConstants& forms) {
   return hessian_kernel_among<float>(forms, Combinations{});
 }
 SingleMaskKernel SingleMaskKernelFor() { return mask_halves<float>; }
+ExcludedKernelOf<float> SingleExcludedKernelFor() { return excluded_pairs<float>; }
 
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd
@@ -30,6 +31,7 @@ namespace vimd {
 HWY_EXPORT(SingleForceKernelFor);
 HWY_EXPORT(SingleHessianKernelFor);
 HWY_EXPORT(SingleMaskKernelFor);
+HWY_EXPORT(SingleExcludedKernelFor);
 
 namespace simd {
 
@@ -42,6 +44,8 @@ SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms) {
 }
 
 SingleMaskKernel single_mask_kernel() { return HWY_DYNAMIC_DISPATCH(SingleMaskKernelFor)(); }
+
+ExcludedKernelOf<float> single_excluded_kernel() { return HWY_DYNAMIC_DISPATCH(SingleExcludedKernelFor)(); }
 
 }  // namespace simd
 }  // namespace vimd

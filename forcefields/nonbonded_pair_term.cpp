@@ -13,8 +13,7 @@ namespace vimd {
 
 namespace {
 
-// The scalar excluded-pair terms, from the build's static SIMD target.
-using HWY_NAMESPACE::excluded_energy_force;
+// The scalar excluded-pair Hessian terms, from the build's static SIMD target.
 using HWY_NAMESPACE::excluded_hessian;
 
 template <class Form>
@@ -30,34 +29,9 @@ void for_each_excluded_pair_form(const PairFormConstants& forms, F&& f) {
   });
 }
 
-// A form's terms of the excluded pairs [p0, p1) (reaction field: GROMACS keeps k_rf r² − c_rf for
-// them), in double precision from the view's positions, added to force buffers of the view's precision.
-template <class Form, class Real>
-double excluded_pair_forces(const Form& form, const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded,
-                            double cutoff2, int p0, int p1, Real* fx, Real* fy, Real* fz) {
-  double energy = 0;
-  for (int p = p0; p < p1; ++p) {
-    const NeighborList::ExcludedPair& pair = excluded[p];
-    const Vec3& shift = d.shifts[pair.shift];
-    const int i = pair.i_slot, j = pair.j_slot;
-    const double dx = double(d.x[i]) - d.x[j] - shift[0], dy = double(d.y[i]) - d.y[j] - shift[1],
-                 dz = double(d.z[i]) - d.z[j] - shift[2];
-    const double r2 = dx * dx + dy * dy + dz * dz;
-    if (r2 >= cutoff2) continue;
-    double v, g;
-    excluded_energy_force(form, d, i, j, r2, v, g);
-    energy += v;
-    fx[i] += g * dx;
-    fy[i] += g * dy;
-    fz[i] += g * dz;
-    fx[j] -= g * dx;
-    fy[j] -= g * dy;
-    fz[j] -= g * dz;
-  }
-  return energy;
-}
-
-// The same for Hessian–vector products, in double precision, added to buffers of the view's precision.
+// A form's terms of the excluded pairs [p0, p1) for Hessian–vector products (reaction field: GROMACS
+// keeps k_rf r² − c_rf for them), in double precision from the view's positions, added to buffers
+// of the view's precision.
 template <class Form, class Real>
 void excluded_pair_hessian(const Form& form, const PairViewOf<Real>& d, const NeighborList::ExcludedPair* excluded,
                            double cutoff2, const Real* ux, const Real* uy, const Real* uz, int p0, int p1, Real* ox,
@@ -71,7 +45,7 @@ void excluded_pair_hessian(const Form& form, const PairViewOf<Real>& d, const Ne
     const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= cutoff2) continue;
     double a, b;  // b ≠ 0 only where a switch acts
-    excluded_hessian(form, d, i, j, r2, a, b);
+    excluded_hessian(form, double(d.charge[i]) * d.charge[j], r2, a, b);
     const double dux = double(ux[i]) - ux[j], duy = double(uy[i]) - uy[j], duz = double(uz[i]) - uz[j];
     const double bp = b * (dx * dux + dy * duy + dz * duz);
     const double hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
@@ -362,6 +336,12 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
     half[k] = w.partial_energies.data() + k * n_halves;
     block[k] = w.partial_energies.data() + kPairEnergies * n_halves + k * n_blocks;
   }
+  const auto excluded_kernel = [] {
+    if constexpr (std::is_same_v<Real, float>)
+      return simd::single_excluded_kernel();
+    else
+      return simd::excluded_kernel();
+  }();
   double* half_lj = half[static_cast<int>(PairEnergy::vdw)];
   double* half_coulomb = half[static_cast<int>(PairEnergy::coulomb)];
   std::uint32_t* inside_masks = nullptr;
@@ -378,12 +358,12 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
         for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
           pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
         });
-        for (int b = t; b < n_blocks; b += nt)
-          for_each_excluded_pair_form(view.forms, [&](const auto& form) {
-            block[static_cast<int>(form.kEnergy)][b] +=
-                excluded_pair_forces(form, view, excluded, cutoff2_, b * kExcludedBlock,
-                                     std::min(n_excluded, (b + 1) * kExcludedBlock), fx, fy, fz);
-          });
+        for (int b = t; b < n_blocks; b += nt) {
+          double energies_of_block[kPairEnergies] = {};
+          excluded_kernel(view, excluded, cutoff2_, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock),
+                          fx, fy, fz, energies_of_block);
+          for (int k = 0; k < kPairEnergies; ++k) block[k][b] += energies_of_block[k];
+        }
       },
       f);
   if (energies.empty()) return;

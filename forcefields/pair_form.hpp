@@ -26,7 +26,7 @@ constexpr int kPairEnergies = 2;
 
 // The constants of a pair form. Beyond these members, a form may have
 //   double self_energy(double sum_q2) const;   a constant energy from the atoms' charges;
-//   static constexpr bool kExcludedPairs = true, and a scalar excluded-pair term in its -inl.h:
+//   static constexpr bool kExcludedPairs = true, and an excluded-pair term in its -inl.h:
 //     what the excluded pairs inside the cut-off still feel;
 //   const SwitchFunction& potential_switch() const, bool potential_switched() const and
 //     static constexpr auto kUnswitched (the variant without the switch): the form can share

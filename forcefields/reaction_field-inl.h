@@ -60,14 +60,15 @@ inline void rf_hessian(const ReactionField& rf, T qq, T rinv, T r2, T& a, T& b) 
     apply_switch_hessian(rf.sw, qq * rf_unit_potential(rf, rinv, r2), r2 * rinv, rinv, a, b);
 }
 
-// Excluded pair inside the cut-off: φ = qq (k_rf r² − c_rf), times S when switched (scalar code:
-// few pairs, so the modifier is a run-time test).
-inline void rf_excluded_energy_force(const ReactionField& rf, double qq, double r2, double& v, double& g) {
+// Excluded pair inside the cut-off: φ = qq (k_rf r² − c_rf), times S when switched (the modifier
+// is a run-time test: the excluded pairs have their own loop); on double or SimdDouble.
+template <class T>
+inline void rf_excluded_energy_force(const ReactionField& rf, T qq, T r2, T& v, T& g) {
   v = qq * (rf.k_rf * r2 - rf.c_rf);
-  g = -2 * qq * rf.k_rf;
+  g = (-2.0 * rf.k_rf) * qq;
   if (rf.modifier == CoulombModifier::potential_switch) {
-    const double r = std::sqrt(r2);
-    apply_switch_energy_force(rf.sw, r, 1 / r, v, g);
+    const T r = simd_sqrt(r2);
+    apply_switch_energy_force(rf.sw, r, 1.0 / r, v, g);
   }
 }
 
@@ -80,16 +81,14 @@ inline void rf_excluded_hessian(const ReactionField& rf, double qq, double r2, d
   }
 }
 
-// The excluded-pair terms of slots i and j at distance² r2 < cutoff², as the pair loop calls them.
-template <class Real>
-inline void excluded_energy_force(const ReactionField& rf, const PairViewOf<Real>& d, int i, int j, double r2,
-                                  double& v, double& g) {
-  rf_excluded_energy_force(rf, rf.prefactor * d.charge[i] * d.charge[j], r2, v, g);
+// The excluded-pair terms as the pair loop calls them: at distance² r2 < cutoff², for the charge
+// product q_i q_j; the energy and force on double or SimdDouble, the Hessian on double.
+template <class T>
+inline void excluded_energy_force(const ReactionField& rf, T charge_product, T r2, T& v, T& g) {
+  rf_excluded_energy_force(rf, rf.prefactor * charge_product, r2, v, g);
 }
-template <class Real>
-inline void excluded_hessian(const ReactionField& rf, const PairViewOf<Real>& d, int i, int j, double r2, double& a,
-                             double& b) {
-  rf_excluded_hessian(rf, rf.prefactor * d.charge[i] * d.charge[j], r2, a, b);
+inline void excluded_hessian(const ReactionField& rf, double charge_product, double r2, double& a, double& b) {
+  rf_excluded_hessian(rf, rf.prefactor * charge_product, r2, a, b);
 }
 
 // The i atoms' charges, times f/eps_r, per vector of rows.
