@@ -96,6 +96,7 @@ struct Layout {
   };
   std::vector<Triangle> triangles;
   std::vector<int> triangle_clusters;  // the clusters with a valid triangle, in order
+  std::vector<int> other_clusters;     // and all the others, in order
   // The atoms of each cluster, once each: those of cluster c at [atom_begin[c], atom_begin[c + 1]).
   std::vector<int> atoms, atom_begin;
 

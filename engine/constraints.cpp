@@ -124,7 +124,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     if (cl.kind == Kind::Small) {
       cl.slot = L.n_small++;
       L.triangles.push_back(rigid_triangle(L, cl));
-      if (L.triangles.back().valid) L.triangle_clusters.push_back(static_cast<int>(L.clusters.size()));
+      (L.triangles.back().valid ? L.triangle_clusters : L.other_clusters).push_back(static_cast<int>(L.clusters.size()));
       L.clusters.push_back(cl);
       continue;
     }
@@ -158,6 +158,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
       for (const auto& e : d.couplings) d.coupling_position.push_back(position(e.a, e.b));
     }
     L.dynamic.push_back(std::move(d));
+    L.other_clusters.push_back(static_cast<int>(L.clusters.size()));
     L.clusters.push_back(cl);
   }
   L.atom_begin.push_back(0);

@@ -184,10 +184,11 @@ int Constraints::solve_positions(const Coords& q_ref, Coords& q, const Eigen::Ve
   // cluster goes through Newton.
   const bool by_settle = !lambda_out && !L.triangle_clusters.empty();
   if (by_settle) settle_positions(L, q_ref, q, w, tolerance, max_iterations, ws, velocity);
-#pragma omp parallel for schedule(guided) if (size() > kParallelMin)
-  for (int c = 0; c < nc; ++c) {
+  const int n_newton = by_settle ? static_cast<int>(L.other_clusters.size()) : nc;
+#pragma omp parallel for schedule(guided) if (size() > kParallelMin && n_newton > 1)
+  for (int k = 0; k < n_newton; ++k) {
+    const int c = by_settle ? L.other_clusters[k] : k;
     const auto& cl = L.clusters[c];
-    if (by_settle && L.is_triangle(cl)) continue;  // done above
     ws.record(c, cl.kind == Kind::Small ? solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations,
                                                                 ws.lambda.data() + cl.begin)
                                         : solve_dynamic(cl));
