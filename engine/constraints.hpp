@@ -18,9 +18,6 @@ struct ClusterFactors;
 struct Workspace;
 }  // namespace constraint_internals
 
-// Geometry, factorisation and the solves with S in engine/constraints.cpp, the SHAKE/RATTLE
-// stages (solve_positions, project_velocities) in engine/shake_rattle_solve.cpp, their rigid-water
-// special case SETTLE in engine/settle.cpp. An empty weights vector means all ones.
 // The half-step velocity a position stage leaves, for solve_positions: v_i = (q_i − q_ref,i)/h for
 // every constrained atom i, written as its cluster is solved (the other atoms keep theirs: the
 // drift q = q_ref + h v already carried them).
@@ -29,6 +26,9 @@ struct StepVelocity {
   double h;
 };
 
+// Geometry, factorisation and the solves with S in engine/constraints.cpp, the SHAKE/RATTLE
+// stages (solve_positions, project_velocities) in engine/shake_rattle_solve.cpp, their rigid-water
+// special case SETTLE in engine/settle.cpp. An empty weights vector means all ones.
 class Constraints {
  public:
   Constraints();

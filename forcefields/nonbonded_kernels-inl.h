@@ -578,7 +578,7 @@ void excluded_pairs(const PairViewOf<Real>& d, const NeighborList::ExcludedPair*
                     Real* fx, Real* fy, Real* fz, double* energies) {
   if constexpr (I < std::tuple_size_v<PairFormConstants>) {
     using Form = std::tuple_element_t<I, PairFormConstants>;
-    if constexpr (requires { requires Form::kExcludedPairs; }) {
+    if constexpr (kHasExcludedPairs<Form>) {
       const Form& form = std::get<I>(d.forms);
       if (form.present()) form_excluded_pairs(form, d, pairs, cutoff2, p0, p1, fx, fy, fz, energies);
     }

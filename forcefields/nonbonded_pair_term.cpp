@@ -17,8 +17,6 @@ namespace {
 using HWY_NAMESPACE::excluded_hessian;
 
 template <class Form>
-constexpr bool kHasExcludedPairs = requires { requires Form::kExcludedPairs; };
-template <class Form>
 constexpr bool kHasSelfEnergy = requires(const Form& form) { form.self_energy(1.0); };
 
 // f(constants) for every form present whose excluded pairs interact.

@@ -44,4 +44,8 @@ concept FormConstants = requires(const C& c, const ForceFieldConfig& config, dou
   { c.describe(cutoff) } -> std::same_as<std::string>;
 };
 
+// Whether the excluded pairs of form C still feel it (kExcludedPairs above).
+template <class C>
+constexpr bool kHasExcludedPairs = requires { requires C::kExcludedPairs; };
+
 }  // namespace vimd
