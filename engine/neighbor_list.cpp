@@ -38,17 +38,19 @@ bool is_positive_image(const Eigen::Vector3i& n) {
 
 // Per-half results built by several threads, put in half order, so that the result does not depend
 // on which thread did which half: half h's items are the `start[h + 1]` (on entry: its count) at
-// offset[h] of per_thread[owner[h]]; on return start[h] is where half h's items begin in `out`.
-template <class T>
-void assemble_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
-                            const std::vector<int>& offset, std::vector<int>& start, std::vector<T>& out,
-                            bool parallel) {
+// offset[h] of per_thread[owner[h]], for each of the arrays `parts` (pairs of per-thread buffers and
+// the array to fill); on return start[h] is where half h's items begin in each output.
+template <class... Parts>
+void assemble_in_half_order(const std::vector<int>& owner, const std::vector<int>& offset, std::vector<int>& start,
+                            bool parallel, Parts... parts) {
   std::partial_sum(start.begin(), start.end(), start.begin());
-  out.resize(start.back());
+  (parts.second->resize(start.back()), ...);
   const int n_halves = static_cast<int>(owner.size());
 #pragma omp parallel for schedule(static) if (parallel)
   for (int h = 0; h < n_halves; ++h)
-    std::copy_n(per_thread[owner[h]].begin() + offset[h], start[h + 1] - start[h], out.begin() + start[h]);
+    (std::copy_n((*parts.first)[owner[h]].begin() + offset[h], start[h + 1] - start[h],
+                 parts.second->begin() + start[h]),
+     ...);
 }
 
 }  // namespace
@@ -89,6 +91,10 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
         shift_images_.emplace_back(sx, sy, sz);
         shift_vectors_.emplace_back(sx * box.length[0], sy * box.length[1], sz * box.length[2]);
       }
+  // A run's buffer fits the box (skin_fitting_box), which leaves 27 images at most.
+  if (shift_vectors_.size() > (std::size_t{1} << Entry::kShiftBits))
+    throw std::invalid_argument("NeighborList: " + std::to_string(shift_vectors_.size()) +
+                                " periodic images in reach, more than an entry can name");
 }
 
 double skin_fitting_box(const Box& box, double cutoff, double skin) {
@@ -214,6 +220,10 @@ void NeighborList::bin_atoms(const Coords& q) {
     column_cluster_start_[c + 1] = column_cluster_start_[c] + (atoms + kCluster - 1) / kCluster;
   }
   n_clusters_ = column_cluster_start_[n_columns];
+  if (n_clusters_ >= (1 << Entry::kClusterBits))
+    throw InputError("[system]", 0,
+                     std::to_string(n) + " atoms need " + std::to_string(n_clusters_) + " pair-list clusters; at most " +
+                         std::to_string((1 << Entry::kClusterBits) - 1) + " fit the list's entries");
   slot_atom_.assign(static_cast<std::size_t>(n_clusters_) * kCluster, -1);
   atom_slot_.assign(n, -1);
   for (int c = 0; c < n_columns; ++c) {
@@ -282,7 +292,8 @@ void NeighborList::bin_atoms(const Coords& q) {
       half_exclusion_start_[h + 1] = static_cast<int>(out.size() - first);
     }
   }
-  assemble_in_half_order(per_thread, owner, offset, half_exclusion_start_, half_exclusions_, n >= kParallelAtoms);
+  assemble_in_half_order(owner, offset, half_exclusion_start_, n >= kParallelAtoms,
+                         std::pair(&per_thread, &half_exclusions_));
 }
 
 void NeighborList::compute_bounds() {
@@ -339,8 +350,11 @@ void NeighborList::search_pairs() {
   // list is assembled in half order afterwards, so it does not depend on the thread count.
   half_start_.assign(n_halves + 1, 0);
   std::vector<int> owner(n_halves), offset(n_halves);
-  std::vector<std::vector<Entry>>& per_thread = search_buffers_;  // kept: no regrowing at every search
+  // Kept: no regrowing at every search.
+  std::vector<std::vector<Entry>>& per_thread = search_buffers_;
+  std::vector<std::vector<float>>& per_thread_nearest = search_nearest_buffers_;
   per_thread.resize(omp_get_max_threads());
+  per_thread_nearest.resize(per_thread.size());
   const ClusterPairKernel kernel = simd::cluster_pair_kernel();
   const BoxBatchKernel box_batch = simd::box_batch_kernel();
   const double* const lo[3] = {cluster_lo_[0].data(), cluster_lo_[1].data(), cluster_lo_[2].data()};
@@ -358,16 +372,18 @@ void NeighborList::search_pairs() {
   {
     const int t = omp_get_thread_num();
     std::vector<Entry>& out = per_thread[t];
+    std::vector<float>& out_nearest = per_thread_nearest[t];
     out.clear();
+    out_nearest.clear();
     std::vector<Entry> found[2];
+    std::vector<float> found_nearest[2];
     std::uint64_t near[kBoxBatch];
     float nearest[kBoxBatch][2] = {};  // finite from the start: the kernel converts all of it
 #pragma omp for schedule(dynamic, 8)
     for (int a_cluster = 0; a_cluster < n_clusters_; ++a_cluster) {
       // Candidates by the bounding box of the whole i-cluster, then per half.
       const Bounds& ba = cluster_bounds_[a_cluster];
-      found[0].clear();
-      found[1].clear();
+      for (int hh = 0; hh < 2; ++hh) found[hh].clear(), found_nearest[hh].clear();
       for (int si = 0; si < static_cast<int>(shift_vectors_.size()); ++si) {
         const Vec3& shift = shift_vectors_[si];
         int c_lo[2], c_hi[2];
@@ -408,8 +424,10 @@ void NeighborList::search_pairs() {
                 std::uint32_t masks[2];
                 entry_masks(a_cluster, b0 + c, si, near[c], masks);
                 for (int hh = 0; hh < 2; ++hh)
-                  if (masks[hh] != 0)
-                    found[hh].push_back({b0 + c, si, masks[hh], nearest[c][hh]});
+                  if (masks[hh] != 0) {
+                    found[hh].push_back(Entry::make(b0 + c, si, masks[hh]));
+                    found_nearest[hh].push_back(nearest[c][hh]);
+                  }
               }
             }
           }
@@ -422,10 +440,12 @@ void NeighborList::search_pairs() {
         owner[h] = t;
         offset[h] = static_cast<int>(out.size());
         out.insert(out.end(), found[hh].begin(), found[hh].end());
+        out_nearest.insert(out_nearest.end(), found_nearest[hh].begin(), found_nearest[hh].end());
       }
     }
   }
-  assemble_in_half_order(per_thread, owner, offset, half_start_, entries_, n_atoms_ >= kParallelSearchAtoms);
+  assemble_in_half_order(owner, offset, half_start_, n_atoms_ >= kParallelSearchAtoms,
+                         std::pair(&per_thread, &entries_), std::pair(&per_thread_nearest, &nearest_));
 }
 
 void NeighborList::collect_excluded_pairs() {

@@ -47,12 +47,19 @@ class NeighborList {
   static constexpr int kClusterSize = 8;
   static constexpr int kHalfSize = kClusterSize / 2;
 
+  // Eight bytes, so that a list streams through the caches at half the size of four fields.
   struct Entry {
-    int j_cluster;
-    int shift;           // index into shift_vectors(); the j atoms are taken at x_j + shift
+    static constexpr int kShiftBits = 8;  // with kClusterBits: one 32-bit word
+    static constexpr int kClusterBits = 32 - kShiftBits;
+    std::uint32_t cluster_and_shift;  // j_cluster << kShiftBits | shift
     std::uint32_t mask;  // bit (ii * kClusterSize + jj): i-half atom ii interacts with j atom jj, and their
                          // distance at the build was below cutoff + skin
-    float nearest;       // at the build, no two of its atoms were closer than this (nm, rounded down)
+    static Entry make(int j_cluster, int shift, std::uint32_t mask) {
+      return {static_cast<std::uint32_t>(j_cluster) << kShiftBits | static_cast<std::uint32_t>(shift), mask};
+    }
+    int j_cluster() const { return static_cast<int>(cluster_and_shift >> kShiftBits); }
+    // Index into shift_vectors(); the j atoms are taken at x_j + shift.
+    int shift() const { return static_cast<int>(cluster_and_shift & ((1u << kShiftBits) - 1)); }
   };
   // An excluded atom pair (i < j in atom order) in slot indices, with the shift that gives its
   // minimum image; kept for interactions that act on excluded pairs (reaction-field correction).
@@ -105,6 +112,8 @@ class NeighborList {
   // Entries of i-half h: entries()[half_start()[h] .. half_start()[h + 1]), by shift, then by j-cluster.
   const std::vector<int>& half_start() const { return half_start_; }
   const std::vector<Entry>& entries() const { return entries_; }
+  // Per entry: at the build, no two of its atoms were closer than this (nm, rounded down).
+  const std::vector<float>& nearest() const { return nearest_; }
   const std::vector<Vec3>& shift_vectors() const { return shift_vectors_; }
   const std::vector<ExcludedPair>& excluded_pairs() const { return excluded_pairs_; }
 
@@ -166,7 +175,10 @@ class NeighborList {
   int zero_shift_ = 0;
   std::vector<int> half_start_;
   std::vector<Entry> entries_;
-  std::vector<std::vector<Entry>> search_buffers_;  // per thread: its entries before they are put in half order
+  std::vector<float> nearest_;
+  // Per thread: its entries and their nearest distances before they are put in half order.
+  std::vector<std::vector<Entry>> search_buffers_;
+  std::vector<std::vector<float>> search_nearest_buffers_;
   std::vector<ExcludedPair> excluded_pairs_;
 };
 

@@ -351,11 +351,11 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
     for (V& e : energy) e = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      hi.positions.follow(d, entry.shift);
+      hi.positions.follow(d, entry.shift());
       const std::uint32_t mask = entry.mask;
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {
-        const int jb = entry.j_cluster * kC + js;
+        const int jb = entry.j_cluster() * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
         const JBlock<Real> j{jb, load_j(d.charge + jb)};
         V fxj = zero, fyj = zero, fzj = zero;
@@ -429,10 +429,10 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
     for (int r = 0; r < kRowVectors; ++r) oxi[r] = oyi[r] = ozi[r] = zero;
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
-      hi.positions.follow(d, entry.shift);
+      hi.positions.follow(d, entry.shift());
       const std::uint32_t mask = masks[e];
       for (int js = 0; js < kC; js += kJ) {
-        const int jb = entry.j_cluster * kC + js;
+        const int jb = entry.j_cluster() * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
         const JBlock<Real> j{jb, load_j(d.charge + jb)};
         const V uxj = load_j(ux + jb), uyj = load_j(uy + jb), uzj = load_j(uz + jb);
@@ -488,15 +488,15 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
     ShiftedHalf<Real> positions;
     positions.load(d, h);
     for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
-      const NeighborList::Entry entry = d.entries[e];
-      if (entry.nearest >= skip) {
+      if (d.nearest && d.nearest[e] >= skip) {
         inside_masks[e] = 0;
         continue;
       }
-      positions.follow(d, entry.shift);
+      const NeighborList::Entry entry = d.entries[e];
+      positions.follow(d, entry.shift());
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {
-        const int jb = entry.j_cluster * kC + js;
+        const int jb = entry.j_cluster() * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
         // Every lane, listed or not (padding and excluded pairs have finite distances too); the
         // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.

@@ -23,6 +23,7 @@ struct PairPositionsOf {
   const int* half_start;
   const Vec3* shifts;
   double cutoff2;
+  const float* nearest = nullptr;  // per entry (NeighborList::nearest), for the mask kernel's skipping
 };
 
 // Everything the pair loops read: the atoms' parameters as plain pointers, and the constants of
@@ -55,7 +56,8 @@ using ForceKernel = void (*)(const PairView&, int h0, int h1, double* fx, double
 using SingleForceKernel = void (*)(const PairViewOf<float>&, int h0, int h1, float* fx, float* fy, float* fz,
                                    double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
-// 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm).
+// 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm; where
+// nearest is given).
 using MaskKernel = void (*)(const PairPositionsOf<double>&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
 // The same on single-precision positions (twice the pairs per vector); its rounding is the
 // caller's to cover, with a cut-off a little beyond the range it needs.

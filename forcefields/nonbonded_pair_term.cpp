@@ -201,7 +201,7 @@ bool NonbondedPairTerm::lists_pair(int a, int b, const TermStepState* step) cons
     const int h = i_slot / kH;
     const std::uint32_t bit = 1u << ((i_slot % kH) * kC + j_slot % kC);
     for (int e = listed.half_start[h]; e < listed.half_start[h + 1]; ++e)
-      if (listed.entries[e].j_cluster == j_slot / kC && (listed.entries[e].mask & bit)) return true;
+      if (listed.entries[e].j_cluster() == j_slot / kC && (listed.entries[e].mask & bit)) return true;
     return false;
   };
   const auto& atom_slot = run_.lists.searched().atom_slot();

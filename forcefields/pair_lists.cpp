@@ -58,8 +58,7 @@ void PairLists::prune(const Coords& q, double moved_since_search, bool single) {
   const double range = list_.cutoff() + skin_;
   // Since the search no pair came closer by more than twice the largest displacement: an entry
   // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
-  narrow({list_.entries(), list_.half_start(), searched_id_}, q, range, range + 2 * moved_since_search, single,
-         pruned_);
+  narrow(searched_view(), q, range, range + 2 * moved_since_search, single, pruned_);
   pruned_at_ = q;
   ++prunes_;
   prune_seconds_ += seconds_since(start);
@@ -79,11 +78,14 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   } else {
     for (auto* v : {&x_, &y_, &z_}) v->resize(n_slots);
   }
-  PairPositionsOf<double> view{x_.data(), y_.data(), z_.data(), from.entries.data(), from.half_start.data(),
-                               list_.shift_vectors().data(), range * range};
+  if (skip_from < INFINITY && from.nearest.size() != from.entries.size())
+    throw std::logic_error("PairLists::narrow: skipping by distance needs the entries' nearest distances");
+  const float* nearest = from.nearest.empty() ? nullptr : from.nearest.data();
+  PairPositionsOf<double> view{x_.data(),           y_.data(),   z_.data(), from.entries.data(), from.half_start.data(),
+                               list_.shift_vectors().data(), range * range, nearest};
   PairPositionsOf<float> float_view{x_single_.data(),     y_single_.data(),     z_single_.data(),
                                     from.entries.data(),  from.half_start.data(), list_.shift_vectors().data(),
-                                    float_range * float_range};
+                                    float_range * float_range, nearest};
   const MaskKernel kernel = simd::mask_kernel();
   const SingleMaskKernel float_kernel = simd::single_mask_kernel();
   const int n_halves = list_.n_halves();

@@ -60,6 +60,7 @@ struct PairListView {
   std::span<const NeighborList::Entry> entries;
   std::span<const int> half_start;
   long id = -1;
+  std::span<const float> nearest = {};  // per entry, where the list keeps it (the searched list)
 };
 
 struct PairListEntries {
@@ -99,7 +100,7 @@ class PairLists {
   const NeighborList& searched() const { return list_; }
   // The regular list: the pruned one, or the searched one without pruning. Its buffer is skin().
   PairListView regular() const {
-    return pruning() ? pruned_.view() : PairListView{list_.entries(), list_.half_start(), searched_id_};
+    return pruning() ? pruned_.view() : searched_view();
   }
   // Buffers of the pruned and the searched list (equal: no pruning), nm.
   double skin() const { return skin_; }
@@ -112,6 +113,9 @@ class PairLists {
 
  private:
   bool pruning() const { return list_.skin() > skin_; }
+  PairListView searched_view() const {
+    return {list_.entries(), list_.half_start(), searched_id_, list_.nearest()};
+  }
   void keep_regular(const Coords& q, double allowed, bool single);
   // Searches again unless every atom is within `allowed` of the last search; returns the largest
   // displacement since the search (0 after a new one).
@@ -120,7 +124,8 @@ class PairLists {
   void prune(const Coords& q, double moved_since_search, bool single);
   // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
   // those pairs, into `to` in half order. Entries whose `nearest` is at least skip_from are dropped
-  // unseen. single: compare single-precision distances (the range is widened by their rounding).
+  // unseen (from.nearest must then be there). single: compare single-precision distances (the
+  // range is widened by their rounding).
   void narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
               PairListEntries& to);
   // The step list at q with buffer `skin` (0: the pairs inside the cut-off).

@@ -643,22 +643,22 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
         double nearest = INFINITY;
         for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
           for (int jj = 0; jj < NeighborList::kClusterSize; ++jj) {
-            const int sa = h * NeighborList::kHalfSize + ii, sb = entry.j_cluster * NeighborList::kClusterSize + jj;
+            const int sa = h * NeighborList::kHalfSize + ii, sb = entry.j_cluster() * NeighborList::kClusterSize + jj;
             if (list.slot_atom()[sa] >= 0 && list.slot_atom()[sb] >= 0)
               nearest = std::min(nearest, (Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) -
-                                           list.shift_vectors()[entry.shift]).norm());
+                                           list.shift_vectors()[entry.shift()]).norm());
           }
-        ASSERT_LE(entry.nearest, nearest);
-        ASSERT_GT(entry.nearest, nearest - rounding);
+        ASSERT_LE(list.nearest()[e], nearest);
+        ASSERT_GT(list.nearest()[e], nearest - rounding);
         for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
           for (int jj = 0; jj < NeighborList::kClusterSize; ++jj) {
             if (!((entry.mask >> (ii * NeighborList::kClusterSize + jj)) & 1u)) continue;
-            const int sa = h * NeighborList::kHalfSize + ii, sb = entry.j_cluster * NeighborList::kClusterSize + jj;
+            const int sa = h * NeighborList::kHalfSize + ii, sb = entry.j_cluster() * NeighborList::kClusterSize + jj;
             const int a = list.slot_atom()[sa], b = list.slot_atom()[sb];
             ASSERT_GE(a, 0);
             ASSERT_GE(b, 0);
             ASSERT_NE(a, b);
-            const Vec3 d = Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) - list.shift_vectors()[entry.shift];
+            const Vec3 d = Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) - list.shift_vectors()[entry.shift()];
             ASSERT_LT(d.norm(), range + rounding);
             int n[3];
             for (int k = 0; k < 3; ++k)

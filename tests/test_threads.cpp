@@ -129,9 +129,10 @@ TEST(ThreadAgreementList, NeighborListDoesNotDependOnThreadCount) {
   EXPECT_EQ(one.half_start(), two.half_start());
   ASSERT_EQ(one.entries().size(), two.entries().size());
   for (std::size_t e = 0; e < one.entries().size(); ++e) {
-    EXPECT_EQ(one.entries()[e].j_cluster, two.entries()[e].j_cluster);
-    EXPECT_EQ(one.entries()[e].shift, two.entries()[e].shift);
+    EXPECT_EQ(one.entries()[e].j_cluster(), two.entries()[e].j_cluster());
+    EXPECT_EQ(one.entries()[e].shift(), two.entries()[e].shift());
     EXPECT_EQ(one.entries()[e].mask, two.entries()[e].mask);
+    EXPECT_EQ(one.nearest()[e], two.nearest()[e]);
   }
 }
 
