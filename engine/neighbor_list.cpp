@@ -19,10 +19,12 @@ namespace {
 
 constexpr int kCluster = NeighborList::kClusterSize;
 
-// Below this many atoms the O(N) loops run on one thread: starting a team costs more than the work
-// (small systems are evaluated very often by the variational integrators).
+// Below this many atoms the per-step O(N) loop (the displacement check) runs on one thread:
+// starting a team costs more than the work (small systems are evaluated very often by the
+// variational integrators).
 constexpr int kParallelAtoms = 4096;
-// The pair search does a few hundred distance tests per atom, so it pays to share from far fewer.
+// A search (binning, bounds, exclusion masks, then a few hundred distance tests per atom) does far
+// more per atom, and the other threads would wait through its serial parts: it shares from fewer.
 constexpr int kParallelSearchAtoms = 1024;
 constexpr int kHalf = NeighborList::kHalfSize;
 // Where padding slots sit in the search (nm): slot s at kFarAway (1 + s), far from everything,
@@ -202,7 +204,7 @@ void NeighborList::bin_atoms(const Coords& q) {
     std::vector<int> fill(column_atom_start.begin(), column_atom_start.end() - 1);
     for (int i = 0; i < n; ++i) sorted[fill[column_of[i]]++] = i;
   }
-#pragma omp parallel for schedule(dynamic, 16) if (n >= kParallelAtoms)
+#pragma omp parallel for schedule(dynamic, 16) if (n >= kParallelSearchAtoms)
   for (int c = 0; c < n_columns; ++c) {
     const auto begin = sorted.begin() + column_atom_start[c], end = sorted.begin() + column_atom_start[c + 1];
     std::sort(begin, end, [&](int a, int b) {
@@ -264,7 +266,7 @@ void NeighborList::bin_atoms(const Coords& q) {
   half_exclusion_start_.assign(n_halves + 1, 0);
   std::vector<int> owner(n_halves), offset(n_halves);
   std::vector<std::vector<ClusterBits>> per_thread(omp_get_max_threads());
-#pragma omp parallel if (n >= kParallelAtoms)
+#pragma omp parallel if (n >= kParallelSearchAtoms)
   {
     const int t = omp_get_thread_num();
     std::vector<ClusterBits>& out = per_thread[t];
@@ -292,7 +294,7 @@ void NeighborList::bin_atoms(const Coords& q) {
       half_exclusion_start_[h + 1] = static_cast<int>(out.size() - first);
     }
   }
-  assemble_in_half_order(owner, offset, half_exclusion_start_, n >= kParallelAtoms,
+  assemble_in_half_order(owner, offset, half_exclusion_start_, n >= kParallelSearchAtoms,
                          std::pair(&per_thread, &half_exclusions_));
 }
 
@@ -302,7 +304,7 @@ void NeighborList::compute_bounds() {
     cluster_hi_[k].assign(n_clusters_ + kBoxBatch, -INFINITY);
   }
   cluster_bounds_.resize(n_clusters_);
-#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelAtoms)
+#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelSearchAtoms)
   for (int c = 0; c < n_clusters_; ++c) {
     Bounds b{Vec3::Constant(INFINITY), Vec3::Constant(-INFINITY)};
     for (int s = c * kCluster; s < (c + 1) * kCluster; ++s) {
