@@ -40,19 +40,17 @@ bool is_positive_image(const Eigen::Vector3i& n) {
 
 // Per-half results built by several threads, put in half order, so that the result does not depend
 // on which thread did which half: half h's items are the `start[h + 1]` (on entry: its count) at
-// offset[h] of per_thread[owner[h]], for each of the arrays `parts` (pairs of per-thread buffers and
-// the array to fill); on return start[h] is where half h's items begin in each output.
-template <class... Parts>
-void assemble_in_half_order(const std::vector<int>& owner, const std::vector<int>& offset, std::vector<int>& start,
-                            bool parallel, Parts... parts) {
+// offset[h] of per_thread[owner[h]]; on return start[h] is where half h's items begin in `out`.
+template <class T>
+void assemble_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
+                            const std::vector<int>& offset, std::vector<int>& start, std::vector<T>& out,
+                            bool parallel) {
   std::partial_sum(start.begin(), start.end(), start.begin());
-  (parts.second->resize(start.back()), ...);
+  out.resize(start.back());
   const int n_halves = static_cast<int>(owner.size());
 #pragma omp parallel for schedule(static) if (parallel)
   for (int h = 0; h < n_halves; ++h)
-    (std::copy_n((*parts.first)[owner[h]].begin() + offset[h], start[h + 1] - start[h],
-                 parts.second->begin() + start[h]),
-     ...);
+    std::copy_n(per_thread[owner[h]].begin() + offset[h], start[h + 1] - start[h], out.begin() + start[h]);
 }
 
 }  // namespace
@@ -294,8 +292,7 @@ void NeighborList::bin_atoms(const Coords& q) {
       half_exclusion_start_[h + 1] = static_cast<int>(out.size() - first);
     }
   }
-  assemble_in_half_order(owner, offset, half_exclusion_start_, n >= kParallelSearchAtoms,
-                         std::pair(&per_thread, &half_exclusions_));
+  assemble_in_half_order(per_thread, owner, offset, half_exclusion_start_, half_exclusions_, n >= kParallelSearchAtoms);
 }
 
 void NeighborList::compute_bounds() {
@@ -348,10 +345,14 @@ void NeighborList::search_pairs() {
   const int n_halves = 2 * n_clusters_;
 
   // Clusters are shared out dynamically (the half list gives early clusters more partners); each
-  // thread appends its entries to its own buffer and notes where each half's entries went, and the
-  // list is assembled in half order afterwards, so it does not depend on the thread count.
+  // thread appends its entries to its own buffer and notes where each half's entries went. The
+  // entries stay there (numbered in half order, so nothing depends on the thread count): a pruning
+  // reads them by half, and entries() puts them in one array only where a caller asks.
   half_start_.assign(n_halves + 1, 0);
-  std::vector<int> owner(n_halves), offset(n_halves);
+  std::vector<int>& owner = half_owner_;
+  std::vector<int>& offset = half_offset_;
+  owner.assign(n_halves, 0);
+  offset.assign(n_halves, 0);
   // Kept: no regrowing at every search.
   std::vector<std::vector<Entry>>& per_thread = search_buffers_;
   std::vector<std::vector<float>>& per_thread_nearest = search_nearest_buffers_;
@@ -446,8 +447,42 @@ void NeighborList::search_pairs() {
       }
     }
   }
-  assemble_in_half_order(owner, offset, half_start_, n_atoms_ >= kParallelSearchAtoms,
-                         std::pair(&per_thread, &entries_), std::pair(&per_thread_nearest, &nearest_));
+  std::partial_sum(half_start_.begin(), half_start_.end(), half_start_.begin());
+}
+
+void NeighborList::point_to_halves(std::vector<const Entry*>& entries, std::vector<const float*>& nearest) const {
+  const std::size_t n_halves = half_owner_.size();
+  entries.resize(n_halves);
+  nearest.resize(n_halves);
+  for (std::size_t h = 0; h < n_halves; ++h) {
+    entries[h] = search_buffers_[half_owner_[h]].data() + half_offset_[h];
+    nearest[h] = search_nearest_buffers_[half_owner_[h]].data() + half_offset_[h];
+  }
+}
+
+const std::vector<NeighborList::Entry>& NeighborList::entries() const {
+  assemble();
+  return entries_;
+}
+
+const std::vector<float>& NeighborList::nearest() const {
+  assemble();
+  return nearest_;
+}
+
+void NeighborList::assemble() const {
+  if (assembled_build_ == builds_) return;
+  entries_.resize(half_start_.empty() ? 0 : half_start_.back());
+  nearest_.resize(entries_.size());
+  const int n_halves = static_cast<int>(half_owner_.size());
+#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelSearchAtoms)
+  for (int h = 0; h < n_halves; ++h) {
+    const int count = half_start_[h + 1] - half_start_[h];
+    std::copy_n(search_buffers_[half_owner_[h]].begin() + half_offset_[h], count, entries_.begin() + half_start_[h]);
+    std::copy_n(search_nearest_buffers_[half_owner_[h]].begin() + half_offset_[h], count,
+                nearest_.begin() + half_start_[h]);
+  }
+  assembled_build_ = builds_;
 }
 
 void NeighborList::collect_excluded_pairs() {

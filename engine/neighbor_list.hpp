@@ -109,11 +109,16 @@ class NeighborList {
   template <class Real>
   void pack_vectors(const Coords& u, Real* x, Real* y, Real* z) const;
 
-  // Entries of i-half h: entries()[half_start()[h] .. half_start()[h + 1]), by shift, then by j-cluster.
+  // The entries of i-half h, by shift, then by j-cluster, are numbered half_start()[h] ..
+  // half_start()[h + 1] − 1 (per-entry data such as masks go by these numbers). They stay where the
+  // search's threads wrote them: point_to_halves gives where each half's entries begin, and its
+  // nearest distances (at the build, no two of the entry's atoms were closer than this, nm, rounded
+  // down); valid until the next build, or a copy of the list. entries() and nearest() put them in
+  // one array in that order, on first use after a build (a pruning does without: it reads the halves).
   const std::vector<int>& half_start() const { return half_start_; }
-  const std::vector<Entry>& entries() const { return entries_; }
-  // Per entry: at the build, no two of its atoms were closer than this (nm, rounded down).
-  const std::vector<float>& nearest() const { return nearest_; }
+  void point_to_halves(std::vector<const Entry*>& entries, std::vector<const float*>& nearest) const;
+  const std::vector<Entry>& entries() const;
+  const std::vector<float>& nearest() const;
   const std::vector<Vec3>& shift_vectors() const { return shift_vectors_; }
   const std::vector<ExcludedPair>& excluded_pairs() const { return excluded_pairs_; }
 
@@ -174,11 +179,15 @@ class NeighborList {
   std::vector<Eigen::Vector3i> shift_images_;
   int zero_shift_ = 0;
   std::vector<int> half_start_;
-  std::vector<Entry> entries_;
-  std::vector<float> nearest_;
-  // Per thread: its entries and their nearest distances before they are put in half order.
+  // Per thread: the entries and nearest distances of the halves it searched (kept from search to
+  // search: no regrowing); half h's are at half_offset_[h] of thread half_owner_[h]'s.
   std::vector<std::vector<Entry>> search_buffers_;
   std::vector<std::vector<float>> search_nearest_buffers_;
+  std::vector<int> half_owner_, half_offset_;
+  void assemble() const;
+  mutable long assembled_build_ = -1;
+  mutable std::vector<Entry> entries_;
+  mutable std::vector<float> nearest_;
   std::vector<ExcludedPair> excluded_pairs_;
 };
 

@@ -487,12 +487,16 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
   for (int h = h0; h < h1; ++h) {
     ShiftedHalf<Real> positions;
     positions.load(d, h);
-    for (int e = d.half_start[h]; e < d.half_start[h + 1]; ++e) {
-      if (d.nearest && d.nearest[e] >= skip) {
+    const int e0 = d.half_start[h], count = d.half_start[h + 1] - e0;
+    const NeighborList::Entry* entries = d.half_entries ? d.half_entries[h] : d.entries + e0;
+    const float* nearest = d.half_nearest ? d.half_nearest[h] : nullptr;
+    for (int k = 0; k < count; ++k) {
+      const int e = e0 + k;
+      if (nearest && nearest[k] >= skip) {
         inside_masks[e] = 0;
         continue;
       }
-      const NeighborList::Entry entry = d.entries[e];
+      const NeighborList::Entry entry = entries[k];
       positions.follow(d, entry.shift());
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {

@@ -23,7 +23,10 @@ struct PairPositionsOf {
   const int* half_start;
   const Vec3* shifts;
   double cutoff2;
-  const float* nearest = nullptr;  // per entry (NeighborList::nearest), for the mask kernel's skipping
+  // Where given (the mask kernel on a searched list): half h's entries and nearest distances begin
+  // at half_entries[h] and half_nearest[h] (NeighborList::half_entries) instead of entries + half_start[h].
+  const NeighborList::Entry* const* half_entries = nullptr;
+  const float* const* half_nearest = nullptr;
 };
 
 // Everything the pair loops read: the atoms' parameters as plain pointers, and the constants of
@@ -57,7 +60,7 @@ using SingleForceKernel = void (*)(const PairViewOf<float>&, int h0, int h1, flo
                                    double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
 // 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm; where
-// nearest is given).
+// half_nearest is given).
 using MaskKernel = void (*)(const PairPositionsOf<double>&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
 // The same on single-precision positions (twice the pairs per vector); its rounding is the
 // caller's to cover, with a cut-off a little beyond the range it needs.

@@ -58,7 +58,7 @@ void PairLists::prune(const Coords& q, double moved_since_search, bool single) {
   const double range = list_.cutoff() + skin_;
   // Since the search no pair came closer by more than twice the largest displacement: an entry
   // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
-  narrow(searched_view(), q, range, range + 2 * moved_since_search, single, pruned_);
+  narrow(searched_halves(), q, range, range + 2 * moved_since_search, single, pruned_);
   pruned_at_ = q;
   ++prunes_;
   prune_seconds_ += seconds_since(start);
@@ -67,7 +67,8 @@ void PairLists::prune(const Coords& q, double moved_since_search, bool single) {
 void PairLists::narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
                        PairListEntries& to) {
   const int n_slots = list_.n_slots();
-  narrow_masks_.resize(from.entries.size());
+  const std::size_t n_entries = from.half_start.back();
+  narrow_masks_.resize(n_entries);
   // Single-precision distances are compared with a range widened by a bound on their rounding
   // (coordinates and shifts below `magnitude`; a few roundings of each difference), so that every
   // pair truly within the range is kept.
@@ -78,14 +79,16 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   } else {
     for (auto* v : {&x_, &y_, &z_}) v->resize(n_slots);
   }
-  if (skip_from < INFINITY && from.nearest.size() != from.entries.size())
+  if (skip_from < INFINITY && from.half_nearest.empty())
     throw std::logic_error("PairLists::narrow: skipping by distance needs the entries' nearest distances");
-  const float* nearest = from.nearest.empty() ? nullptr : from.nearest.data();
+  const bool by_halves = !from.half_entries.empty();
+  const NeighborList::Entry* const* half_entries = by_halves ? from.half_entries.data() : nullptr;
+  const float* const* half_nearest = from.half_nearest.empty() ? nullptr : from.half_nearest.data();
   PairPositionsOf<double> view{x_.data(),           y_.data(),   z_.data(), from.entries.data(), from.half_start.data(),
-                               list_.shift_vectors().data(), range * range, nearest};
+                               list_.shift_vectors().data(), range * range, half_entries, half_nearest};
   PairPositionsOf<float> float_view{x_single_.data(),     y_single_.data(),     z_single_.data(),
                                     from.entries.data(),  from.half_start.data(), list_.shift_vectors().data(),
-                                    float_range * float_range, nearest};
+                                    float_range * float_range, half_entries, half_nearest};
   const MaskKernel kernel = simd::mask_kernel();
   const SingleMaskKernel float_kernel = simd::single_mask_kernel();
   const int n_halves = list_.n_halves();
@@ -94,7 +97,7 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   std::vector<int> chunk_kept(half_chunks(n_halves) + 1, 0);
   // Each thread narrows its chunks of halves and counts what each keeps; the chunks are then
   // copied into place in half order (the result does not depend on the thread count).
-#pragma omp parallel if (from.entries.size() >= kParallelEntries)
+#pragma omp parallel if (n_entries >= kParallelEntries)
   {
     if (single)
       list_.pack_positions(q, x_single_.data(), y_single_.data(), z_single_.data());
@@ -120,17 +123,22 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
       to.entries.resize(chunk_kept.back());
     }
     for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
-      const int offset = chunk_kept[h0 / kHalfChunk], end = chunk_kept[h0 / kHalfChunk + 1];
+      const int offset = chunk_kept[h0 / kHalfChunk];
       // Without a branch (which entries stay is unpredictable): every entry is written, and the
-      // next one overwrites it unless it stays; the loop ends with the chunk's last kept entry, so
-      // the writes stay inside the chunk's place.
+      // next one overwrites it unless it stays; each half's loop ends with its last kept entry
+      // (to.half_start holds the kept counts within the chunk), so the writes stay in its place.
       int out = offset;
-      for (int e = from.half_start[h0]; out < end; ++e) {
-        to.entries[out] = from.entries[e];
-        to.entries[out].mask = narrow_masks_[e];
-        out += narrow_masks_[e] != 0;
+      for (int h = h0; h < h1; ++h) {
+        const int e0 = from.half_start[h];
+        const NeighborList::Entry* entries = by_halves ? from.half_entries[h] : from.entries.data() + e0;
+        const std::uint32_t* masks = narrow_masks_.data() + e0;
+        const int half_end = to.half_start[h + 1] += offset;
+        for (int k = 0; out < half_end; ++k) {
+          to.entries[out] = entries[k];
+          to.entries[out].mask = masks[k];
+          out += masks[k] != 0;
+        }
       }
-      for (int h = h0; h < h1; ++h) to.half_start[h + 1] += offset;
     });
   }
   to.id = ++changes_;

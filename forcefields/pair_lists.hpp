@@ -60,7 +60,10 @@ struct PairListView {
   std::span<const NeighborList::Entry> entries;
   std::span<const int> half_start;
   long id = -1;
-  std::span<const float> nearest = {};  // per entry, where the list keeps it (the searched list)
+  // A searched list as the search left it (entries then empty): per half, where its entries and
+  // their nearest distances begin (NeighborList::half_entries, half_nearest).
+  std::span<const NeighborList::Entry* const> half_entries = {};
+  std::span<const float* const> half_nearest = {};
 };
 
 struct PairListEntries {
@@ -100,7 +103,7 @@ class PairLists {
   const NeighborList& searched() const { return list_; }
   // The regular list: the pruned one, or the searched one without pruning. Its buffer is skin().
   PairListView regular() const {
-    return pruning() ? pruned_.view() : searched_view();
+    return pruning() ? pruned_.view() : PairListView{list_.entries(), list_.half_start(), searched_id_};
   }
   // Buffers of the pruned and the searched list (equal: no pruning), nm.
   double skin() const { return skin_; }
@@ -113,8 +116,10 @@ class PairLists {
 
  private:
   bool pruning() const { return list_.skin() > skin_; }
-  PairListView searched_view() const {
-    return {list_.entries(), list_.half_start(), searched_id_, list_.nearest()};
+  // The searched list where the search left it (for a pruning).
+  PairListView searched_halves() {
+    list_.point_to_halves(half_entries_, half_nearest_);
+    return {{}, list_.half_start(), searched_id_, half_entries_, half_nearest_};
   }
   void keep_regular(const Coords& q, double allowed, bool single);
   // Searches again unless every atom is within `allowed` of the last search; returns the largest
@@ -124,7 +129,7 @@ class PairLists {
   void prune(const Coords& q, double moved_since_search, bool single);
   // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
   // those pairs, into `to` in half order. Entries whose `nearest` is at least skip_from are dropped
-  // unseen (from.nearest must then be there). single: compare single-precision distances (the
+  // unseen (from.half_nearest must then be there). single: compare single-precision distances (the
   // range is widened by their rounding).
   void narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
               PairListEntries& to);
@@ -140,6 +145,8 @@ class PairLists {
   long prunes_ = 0, step_prunes_ = 0, changes_ = 0;
   double prune_seconds_ = 0;
   std::vector<std::uint32_t> narrow_masks_;  // per entry of the list being narrowed
+  std::vector<const NeighborList::Entry*> half_entries_;  // searched_halves()'s
+  std::vector<const float*> half_nearest_;
   std::vector<double> x_, y_, z_;           // positions packed for a pruning
   std::vector<float> x_single_, y_single_, z_single_;
 };
