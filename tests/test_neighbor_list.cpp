@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <random>
 #include <set>
 #include <tuple>
@@ -15,6 +16,7 @@
 #include "engine/neighbor_list.hpp"
 #include "forcefields/lennard_jones-inl.h"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/pair_lists.hpp"
 #include "forcefields/ewald-inl.h"
 #include "forcefields/reaction_field-inl.h"
 #include "test_ff_systems.hpp"
@@ -291,6 +293,53 @@ TEST(NeighborList, MatchesBruteForceOverDisplacedConfigurations) {
         EXPECT_GT(expected_prunes, expected_searches + 3) << what;
       }
     }
+}
+
+// The searched list stays in the search's per-thread buffers, which a pruning finds again each
+// time: a copy of the lists prunes from its own buffers and goes on exactly as the original would,
+// even once the original is gone.
+TEST(NeighborList, CopiedListsPruneAsTheOriginalWould) {
+  auto [system, q0] = testing::water_like_system(500, Vec3(3.0, 2.9, 3.1), 17);
+  const double cutoff = 0.9, skin = 0.1, search_skin = 0.4;
+  std::mt19937_64 rng(3);
+  // Further than skin/2 for some atoms (a pruning), within (search_skin − skin)/2 (no search).
+  const Coords q1 = q0 + random_vectors(static_cast<int>(q0.cols()), rng, 0.06);
+  ASSERT_GT(max_displacement(q1, q0), 0.5 * skin);
+  ASSERT_LT(max_displacement(q1, q0), 0.5 * (search_skin - skin));
+  PairLists reference(system.box, cutoff, search_skin, skin, system.exclusions);
+  std::optional<PairLists> original(std::in_place, system.box, cutoff, search_skin, skin, system.exclusions);
+  reference.keep_regular(q0, false);
+  original->keep_regular(q0, false);
+  PairLists copy = *original;
+  original.reset();
+  reference.keep_regular(q1, false);
+  copy.keep_regular(q1, false);
+  WorkCounters work;
+  copy.add_work(work);
+  EXPECT_EQ(work.neighbor_rebuilds, 1);
+  EXPECT_EQ(work.neighbor_prunes, 2);
+  const PairListView a = copy.regular(), b = reference.regular();
+  ASSERT_TRUE(std::equal(a.half_start.begin(), a.half_start.end(), b.half_start.begin(), b.half_start.end()));
+  ASSERT_EQ(a.entries.size(), b.entries.size());
+  ASSERT_GT(a.entries.size(), 0u);
+  for (std::size_t e = 0; e < a.entries.size(); ++e) {
+    ASSERT_EQ(a.entries[e].j_cluster(), b.entries[e].j_cluster()) << "entry " << e;
+    ASSERT_EQ(a.entries[e].shift(), b.entries[e].shift()) << "entry " << e;
+    ASSERT_EQ(a.entries[e].mask, b.entries[e].mask) << "entry " << e;
+  }
+}
+
+// An entry packs the j-cluster and the shift into one word: the largest of each come back intact.
+TEST(NeighborList, EntryKeepsTheLargestClusterAndShift) {
+  using Entry = NeighborList::Entry;
+  const int largest_cluster = (1 << Entry::kClusterBits) - 1, largest_shift = (1 << Entry::kShiftBits) - 1;
+  for (const auto& [cluster, shift] : std::vector<std::pair<int, int>>{
+           {0, 0}, {largest_cluster, 0}, {0, largest_shift}, {largest_cluster, largest_shift}, {12345, 13}}) {
+    const Entry entry = Entry::make(cluster, shift, 0xdeadbeefu);
+    EXPECT_EQ(entry.j_cluster(), cluster);
+    EXPECT_EQ(entry.shift(), shift);
+    EXPECT_EQ(entry.mask, 0xdeadbeefu);
+  }
 }
 
 // Without neighbor_search_skin the searched list gets the skin plus a margin the box has room for
