@@ -39,18 +39,26 @@ bool is_positive_image(const Eigen::Vector3i& n) {
 }
 
 // Per-half results built by several threads, put in half order, so that the result does not depend
-// on which thread did which half: half h's items are the `start[h + 1]` (on entry: its count) at
-// offset[h] of per_thread[owner[h]]; on return start[h] is where half h's items begin in `out`.
+// on which thread did which half: half h's items are the start[h + 1] − start[h] at offset[h] of
+// per_thread[owner[h]], and go to start[h] of `out`.
 template <class T>
-void assemble_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
-                            const std::vector<int>& offset, std::vector<int>& start, std::vector<T>& out,
-                            bool parallel) {
-  std::partial_sum(start.begin(), start.end(), start.begin());
+void gather_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
+                          const std::vector<int>& offset, const std::vector<int>& start, std::vector<T>& out,
+                          bool parallel) {
   out.resize(start.back());
   const int n_halves = static_cast<int>(owner.size());
 #pragma omp parallel for schedule(static) if (parallel)
   for (int h = 0; h < n_halves; ++h)
     std::copy_n(per_thread[owner[h]].begin() + offset[h], start[h + 1] - start[h], out.begin() + start[h]);
+}
+
+// The same where start[h + 1] holds half h's count on entry: on return start holds where each begins.
+template <class T>
+void assemble_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
+                            const std::vector<int>& offset, std::vector<int>& start, std::vector<T>& out,
+                            bool parallel) {
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  gather_in_half_order(per_thread, owner, offset, start, out, parallel);
 }
 
 }  // namespace
@@ -472,16 +480,9 @@ const std::vector<float>& NeighborList::nearest() const {
 
 void NeighborList::assemble() const {
   if (assembled_build_ == builds_) return;
-  entries_.resize(half_start_.empty() ? 0 : half_start_.back());
-  nearest_.resize(entries_.size());
-  const int n_halves = static_cast<int>(half_owner_.size());
-#pragma omp parallel for schedule(static) if (n_atoms_ >= kParallelSearchAtoms)
-  for (int h = 0; h < n_halves; ++h) {
-    const int count = half_start_[h + 1] - half_start_[h];
-    std::copy_n(search_buffers_[half_owner_[h]].begin() + half_offset_[h], count, entries_.begin() + half_start_[h]);
-    std::copy_n(search_nearest_buffers_[half_owner_[h]].begin() + half_offset_[h], count,
-                nearest_.begin() + half_start_[h]);
-  }
+  const bool parallel = n_atoms_ >= kParallelSearchAtoms;
+  gather_in_half_order(search_buffers_, half_owner_, half_offset_, half_start_, entries_, parallel);
+  gather_in_half_order(search_nearest_buffers_, half_owner_, half_offset_, half_start_, nearest_, parallel);
   assembled_build_ = builds_;
 }
 

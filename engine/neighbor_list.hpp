@@ -178,7 +178,7 @@ class NeighborList {
   std::vector<Vec3> shift_vectors_;
   std::vector<Eigen::Vector3i> shift_images_;
   int zero_shift_ = 0;
-  std::vector<int> half_start_;
+  std::vector<int> half_start_ = {0};  // a list without halves before the first build
   // Per thread: the entries and nearest distances of the halves it searched (kept from search to
   // search: no regrowing); half h's are at half_offset_[h] of thread half_owner_[h]'s.
   std::vector<std::vector<Entry>> search_buffers_;

@@ -23,8 +23,8 @@ struct PairPositionsOf {
   const int* half_start;
   const Vec3* shifts;
   double cutoff2;
-  // Where given (the mask kernel on a searched list): half h's entries and nearest distances begin
-  // at half_entries[h] and half_nearest[h] (NeighborList::half_entries) instead of entries + half_start[h].
+  // Where given (the mask kernel on a searched list, NeighborList::point_to_halves): half h's
+  // entries and nearest distances begin at half_entries[h] and half_nearest[h], not entries + half_start[h].
   const NeighborList::Entry* const* half_entries = nullptr;
   const float* const* half_nearest = nullptr;
 };

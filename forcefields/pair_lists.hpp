@@ -61,7 +61,7 @@ struct PairListView {
   std::span<const int> half_start;
   long id = -1;
   // A searched list as the search left it (entries then empty): per half, where its entries and
-  // their nearest distances begin (NeighborList::half_entries, half_nearest).
+  // their nearest distances begin (NeighborList::point_to_halves).
   std::span<const NeighborList::Entry* const> half_entries = {};
   std::span<const float* const> half_nearest = {};
 };
