@@ -26,9 +26,9 @@ namespace vimd {
 // The pair loop's unit of work: i-halves in chunks of kHalfChunk. Each thread takes a contiguous
 // run of chunks holding about 1/nt of the list's entries, so that the threads finish together
 // (early halves, paired with all later clusters, hold more entries than late ones) and each works
-// on its own part of the box. It depends only on the list and the thread count, as the summation
-// order must.
-constexpr int kHalfChunk = 16;
+// on its own part of the box; chunks of a few halves keep the shares within a fraction of a per
+// cent of each other. It depends only on the list and the thread count, as the summation order must.
+constexpr int kHalfChunk = 4;
 
 inline int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
 
@@ -37,18 +37,19 @@ template <class F>
 void for_thread_chunks(std::span<const int> half_start, int t, int nt, F&& f) {
   const int n_halves = static_cast<int>(half_start.size()) - 1;
   const int chunks = half_chunks(n_halves);
-  // The first chunk that starts at or after entry k/nt of the list.
+  auto chunk_start = [&](int c) { return half_start[std::min(n_halves, c * kHalfChunk)]; };
+  // The chunk boundary nearest to entry k/nt of the list.
   auto first_chunk = [&](int k) {
     const long target = static_cast<long>(half_start[n_halves]) * k / nt;
     int lo = 0, hi = chunks;
     while (lo < hi) {
       const int mid = (lo + hi) / 2;
-      if (half_start[mid * kHalfChunk] < target)
+      if (chunk_start(mid) < target)
         lo = mid + 1;
       else
         hi = mid;
     }
-    return lo;
+    return lo > 0 && target - chunk_start(lo - 1) < chunk_start(lo) - target ? lo - 1 : lo;
   };
   const int end = t + 1 == nt ? chunks : first_chunk(t + 1);
   for (int c = t == 0 ? 0 : first_chunk(t); c < end; ++c) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));

@@ -11,6 +11,7 @@
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/pair_lists.hpp"
 #include "forcefields/pairs_14.hpp"
 #include "forcefields/registry.hpp"
 #include "test_ff_systems.hpp"
@@ -133,6 +134,38 @@ TEST(ThreadAgreementList, NeighborListDoesNotDependOnThreadCount) {
     EXPECT_EQ(one.entries()[e].shift(), two.entries()[e].shift());
     EXPECT_EQ(one.entries()[e].mask, two.entries()[e].mask);
     EXPECT_EQ(one.nearest()[e], two.nearest()[e]);
+  }
+}
+
+// The pair loop's split: every half once, in order, each thread a contiguous run; each boundary
+// between threads within half a chunk of its place, so a share is within a chunk of 1/nt of the
+// entries, where the early halves hold far more entries than the late ones.
+TEST(ThreadAgreementList, ThreadChunksCoverEveryHalfOnceInEvenShares) {
+  std::mt19937 rng(3);
+  for (int n_halves : {1, 7, 400, 1001}) {
+    std::vector<int> half_start{0};
+    for (int h = 0; h < n_halves; ++h)
+      half_start.push_back(half_start.back() + std::uniform_int_distribution<int>(0, 2 * (n_halves - h) / 10 + 3)(rng));
+    int heaviest_chunk = 0;
+    for (int c = 0; c * kHalfChunk < n_halves; ++c)
+      heaviest_chunk = std::max(heaviest_chunk, half_start[std::min(n_halves, (c + 1) * kHalfChunk)] -
+                                                    half_start[c * kHalfChunk]);
+    for (int nt : {1, 2, 3, 4}) {
+      int next = 0;
+      for (int t = 0; t < nt; ++t) {
+        long share = 0;
+        for_thread_chunks(half_start, t, nt, [&](int h0, int h1) {
+          EXPECT_EQ(h0, next) << n_halves << " halves, thread " << t << " of " << nt;
+          EXPECT_LT(h0, h1);
+          EXPECT_LE(h1 - h0, kHalfChunk);
+          next = h1;
+          share += half_start[h1] - half_start[h0];
+        });
+        EXPECT_LE(std::abs(share - static_cast<double>(half_start.back()) / nt), heaviest_chunk)
+            << n_halves << " halves, thread " << t << " of " << nt;
+      }
+      EXPECT_EQ(next, n_halves);
+    }
   }
 }
 
