@@ -23,26 +23,9 @@ inline void pad_batch(double* in, int n_fields, int count) {
 // for a rigid isosceles triangle whose two base atoms have equal weights: the centre of mass
 // stays, each atom keeps its height above the q_ref plane, and one in-plane rotation is fixed by
 // the torque condition. The kernel (settle_kernels.cpp) takes a batch's positions as stored and
-// also finds where SETTLE does not apply (q_ref off the constraints, unequal weights) and where q
-// already satisfies them; settle_finish records each molecule's outcome. Where SETTLE does not
-// apply or its result misses the tolerance, q is untouched and Newton solves the cluster.
-
-// The outcome of a triangle whose sides apex–h1, apex–h2 and base deviate by `deviation` (relative);
-// false where one deviates by more than the tolerance (also NaN: a displacement too large for the
-// triangle).
-bool settle_outcome(const Layout& L, const Layout::Cluster& cl, const double deviation[3], int iterations,
-                    double tolerance, ClusterOutcome& out) {
-  const Layout::Triangle& t = L.triangles[cl.slot];
-  const int position[3] = {t.ab, t.ac, t.bc};
-  out = ClusterOutcome{};
-  out.iterations = iterations;
-  out.worst = cl.begin + position[0];
-  for (int k = 0; k < 3; ++k) {
-    if (!(deviation[k] <= tolerance)) return false;
-    if (deviation[k] > out.deviation) out.deviation = deviation[k], out.worst = cl.begin + position[k];
-  }
-  return true;
-}
+// also decides each molecule's outcome (SettleStatus: where SETTLE does not apply, where q already
+// satisfies the constraints) and its step velocity; settle_positions copies them out. Where SETTLE
+// does not apply or its result misses the tolerance, q is untouched and Newton solves the cluster.
 
 void settle_prepare(const Layout::Triangle& t, const Coords& q_ref, const Coords& q, const double* w,
                     double* in, int k) {
@@ -57,23 +40,6 @@ void settle_prepare(const Layout::Triangle& t, const Coords& q_ref, const Coords
   in[kWeightC * kSettleBatch + k] = w[t.h2];
   in[kSide * kSettleBatch + k] = t.d_side;
   in[kBase * kSettleBatch + k] = t.d_base;
-}
-
-// Lane k's outcome; false where Newton must solve the cluster (q then untouched).
-bool settle_finish(const Layout& L, const Layout::Cluster& cl, const double* result, int k, Coords& q,
-                   double tolerance, ClusterOutcome& out) {
-  const auto status = static_cast<SettleStatus>(result[kStatus * kSettleBatch + k]);
-  if (status == SettleStatus::not_applicable) return false;
-  const double deviation[3] = {result[kDeviationAB * kSettleBatch + k], result[kDeviationAC * kSettleBatch + k],
-                               result[kDeviationBC * kSettleBatch + k]};
-  const bool rotated = status == SettleStatus::rotated;
-  if (!settle_outcome(L, cl, deviation, rotated ? 1 : 0, tolerance, out)) return false;
-  if (!rotated) return true;
-  const Layout::Triangle& t = L.triangles[cl.slot];
-  const int atoms[3] = {t.apex, t.h1, t.h2};
-  for (int a = 0; a < 3; ++a)
-    for (int d = 0; d < 3; ++d) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
-  return true;
 }
 
 // Lane k of a velocity-projection batch for a rigid triangle: its three bonds, rates and weight
@@ -138,7 +104,8 @@ Layout::Triangle rigid_triangle(const Layout& L, const Layout::Cluster& cl) {
 void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const double* w, double tolerance,
                       int max_iterations, Workspace& ws, const StepVelocity* velocity) {
   const SettleKernel kernel = simd::settle_kernel();
-  const SettleParams params{tolerance, {L.box.length[0], L.box.length[1], L.box.length[2]}};
+  const SettleParams params{tolerance, {L.box.length[0], L.box.length[1], L.box.length[2]}, velocity != nullptr,
+                            velocity ? velocity->h : 0};
   const int n_triangles = static_cast<int>(L.triangle_clusters.size());
   const int n_batches = (n_triangles + kSettleBatch - 1) / kSettleBatch;
 #pragma omp parallel for schedule(guided) if (L.n_constraints() > kParallelMin)
@@ -152,11 +119,25 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
     for (int k = 0; k < count; ++k) {
       const int c = L.triangle_clusters[first + k];
       const Layout::Cluster& cl = L.clusters[c];
+      const auto status = static_cast<SettleStatus>(result[kStatus * kSettleBatch + k]);
+      if (status == SettleStatus::newton) {
+        ws.record(c, solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin));
+        if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
+        continue;
+      }
+      const Layout::Triangle& t = L.triangles[cl.slot];
+      const int side_position[3] = {t.ab, t.ac, t.bc};
       ClusterOutcome out;
-      if (!settle_finish(L, cl, result, k, q, tolerance, out))
-        out = solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin);
+      out.iterations = status == SettleStatus::rotated ? 1 : 0;
+      out.worst = cl.begin + side_position[static_cast<int>(result[kWorstSide * kSettleBatch + k])];
+      out.deviation = result[kDeviation * kSettleBatch + k];
       ws.record(c, out);
-      if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
+      const int atoms[3] = {t.apex, t.h1, t.h2};
+      for (int a = 0; a < 3; ++a)
+        for (int d = 0; d < 3; ++d) {
+          if (status == SettleStatus::rotated) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
+          if (velocity) velocity->v(d, atoms[a]) = result[(kVelAx + 3 * a + d) * kSettleBatch + k];
+        }
     }
   }
 }

@@ -101,26 +101,45 @@ void settle_batch(int count, const SettleParams& params, const double* in, doubl
     const V3 a3 = lab(-(a2y * sin_theta), a2y * cos_theta, a1z);
     const V3 b3 = lab(b2x * cos_theta - b2y * sin_theta, b2x * sin_theta + b2y * cos_theta, b1z);
     const V3 c3 = lab(-(b2x * cos_theta) - c2y * sin_theta, -(b2x * sin_theta) + c2y * cos_theta, c1z);
-    // Back in the stored images of q.
-    const V3 new_a = q_a + a3, new_b = q_a + b3 - image_b, new_c = q_a + c3 - image_c;
-    const V3* result[3] = {&new_a, &new_b, &new_c};
-    for (int a = 0; a < 3; ++a) {
-      simd_store(out + (kNewAx + 3 * a) * kSettleBatch + k, result[a]->x);
-      simd_store(out + (kNewAx + 3 * a + 1) * kSettleBatch + k, result[a]->y);
-      simd_store(out + (kNewAx + 3 * a + 2) * kSettleBatch + k, result[a]->z);
-    }
-    // The sides of q where it stays, of the rotated molecule elsewhere.
+    // Back in the stored images of q; q itself where it stays.
     auto pick = [&](const V3& of_q, const V3& rotated) {
       return V3{V{hn::IfThenElse(satisfied, of_q.x.v, rotated.x.v)}, V{hn::IfThenElse(satisfied, of_q.y.v, rotated.y.v)},
                 V{hn::IfThenElse(satisfied, of_q.z.v, rotated.z.v)}};
     };
-    simd_store(out + kDeviationAB * kSettleBatch + k, deviation(pick(b1_apex, b3 - a3), side));
-    simd_store(out + kDeviationAC * kSettleBatch + k, deviation(pick(c1_apex, c3 - a3), side));
-    simd_store(out + kDeviationBC * kSettleBatch + k, deviation(pick(c1_apex - b1_apex, c3 - b3), base));
+    const V3 new_a = pick(q_a, q_a + a3), new_b = pick(point(kQBx, k), q_a + b3 - image_b),
+             new_c = pick(point(kQCx, k), q_a + c3 - image_c);
+    const V3* result[3] = {&new_a, &new_b, &new_c};
+    const int ref_field[3] = {kRefAx, kRefBx, kRefCx};
+    for (int a = 0; a < 3; ++a) {
+      simd_store(out + (kNewAx + 3 * a) * kSettleBatch + k, result[a]->x);
+      simd_store(out + (kNewAx + 3 * a + 1) * kSettleBatch + k, result[a]->y);
+      simd_store(out + (kNewAx + 3 * a + 2) * kSettleBatch + k, result[a]->z);
+      if (params.step_velocities) {
+        const V3 v = V3{(result[a]->x - field(ref_field[a], k)) / params.step_h,
+                        (result[a]->y - field(ref_field[a] + 1, k)) / params.step_h,
+                        (result[a]->z - field(ref_field[a] + 2, k)) / params.step_h};
+        simd_store(out + (kVelAx + 3 * a) * kSettleBatch + k, v.x);
+        simd_store(out + (kVelAx + 3 * a + 1) * kSettleBatch + k, v.y);
+        simd_store(out + (kVelAx + 3 * a + 2) * kSettleBatch + k, v.z);
+      }
+    }
+    // The sides of q where it stays, of the rotated molecule elsewhere.
+    const V side_deviation[3] = {deviation(pick(b1_apex, b3 - a3), side), deviation(pick(c1_apex, c3 - a3), side),
+                                 deviation(pick(c1_apex - b1_apex, c3 - b3), base)};
+    V largest = V::zero(), worst_side = V::zero();
+    auto within_tolerance = applicable;
+    for (int s = 0; s < 3; ++s) {
+      within_tolerance = hn::And(within_tolerance, hn::Le(side_deviation[s].v, hn::Set(tag, tolerance)));
+      const auto larger = hn::Gt(side_deviation[s].v, largest.v);
+      largest = V{hn::IfThenElse(larger, side_deviation[s].v, largest.v)};
+      worst_side = V{hn::IfThenElse(larger, hn::Set(tag, static_cast<double>(s)), worst_side.v)};
+    }
+    simd_store(out + kDeviation * kSettleBatch + k, largest);
+    simd_store(out + kWorstSide * kSettleBatch + k, worst_side);
     auto status = [&](SettleStatus s) { return hn::Set(tag, static_cast<double>(s)); };
     simd_store(out + kStatus * kSettleBatch + k,
-               V{hn::IfThenElse(satisfied, status(SettleStatus::already_satisfied),
-                                hn::IfThenElseZero(applicable, status(SettleStatus::rotated)))});
+               V{hn::IfThenElseZero(within_tolerance, V{hn::IfThenElse(satisfied, status(SettleStatus::already_satisfied),
+                                                                       status(SettleStatus::rotated))}.v)});
   }
 }
 

@@ -11,16 +11,23 @@ inline constexpr int kSettleBatch = 64;
 enum SettleIn { kRefAx, kRefAy, kRefAz, kRefBx, kRefBy, kRefBz, kRefCx, kRefCy, kRefCz,
                 kQAx, kQAy, kQAz, kQBx, kQBy, kQBz, kQCx, kQCy, kQCz,
                 kWeightA, kWeightB, kWeightC, kSide, kBase, kSettleInFields };
-// Out: what became of each molecule (SettleStatus), the new positions of apex, h1 and h2 (stored
-// coordinates, same images as q; meaningful where rotated), and the relative deviations of their
-// sides apex–h1, apex–h2 and base (of q where already satisfied; NaN where the rotation failed).
+// Out: what became of each molecule (SettleStatus); the new positions of apex, h1 and h2 (stored
+// coordinates, same images as q: q itself where already satisfied); where SettleParams asks for
+// them, their step velocities (new − q_ref) / step_h; the largest relative deviation of the three
+// sides and which side it is (0: apex–h1, 1: apex–h2, 2: base; the first of equals, 0 if all are 0).
+// Positions, velocities and deviations are meaningful only where the status is not `newton`.
 enum SettleOut { kNewAx, kNewAy, kNewAz, kNewBx, kNewBy, kNewBz, kNewCx, kNewCy, kNewCz,
-                 kDeviationAB, kDeviationAC, kDeviationBC, kStatus, kSettleOutFields };
-// not_applicable: q_ref off the constraints, or weights SETTLE cannot take (Newton solves those).
-enum class SettleStatus { not_applicable = 0, already_satisfied = 1, rotated = 2 };
+                 kVelAx, kVelAy, kVelAz, kVelBx, kVelBy, kVelBz, kVelCx, kVelCy, kVelCz,
+                 kDeviation, kWorstSide, kStatus, kSettleOutFields };
+// newton: SETTLE does not apply (q_ref off the constraints, or weights it cannot take) or its
+// result misses the tolerance (also a NaN: a displacement too large for the triangle); Newton
+// solves those from the untouched q.
+enum class SettleStatus { newton = 0, already_satisfied = 1, rotated = 2 };
 struct SettleParams {
   double tolerance;
   double box[3];  // periodic lengths, 0 where not periodic
+  bool step_velocities = false;
+  double step_h = 0;  // StepVelocity::h (negative in some composition sub-steps)
 };
 using SettleKernel = void (*)(int count, const SettleParams& params, const double* in, double* out);
 
