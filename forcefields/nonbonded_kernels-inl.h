@@ -280,21 +280,16 @@ using Combinations =
            typename SumsOf<typename SlotOf<VdwForms>::type, typename SlotOf<CoulombForms>::type>::type>;
 
 // The i-half's positions, per vector of rows, moved by −s for the run of its entries with shift s
-// (a half's entries come by shift): x_i − (x_j + s) as (x_i − s) − x_j, the shift applied once per run.
+// (a half's entries come by shift): x_i − (x_j + s) as (x_i − s) − x_j, the shift applied once per
+// run, to positions read again from the slot arrays (no unshifted copies held in registers).
 template <class Real>
 struct ShiftedHalf {
   static constexpr int kVectors = PairLayout<Real>::kRowVectors;
-  SimdVec<Real> x0[kVectors], y0[kVectors], z0[kVectors];  // unshifted
   SimdVec<Real> x[kVectors], y[kVectors], z[kVectors];
-  int shift = -1;
+  int shift = -1, ib = 0;
 
-  HWY_INLINE void load(const PairPositionsOf<Real>& d, int h) {
-    const int ib = h * kH;
-    for (int r = 0; r < kVectors; ++r) {
-      x0[r] = broadcast_rows(d.x + ib, r * PairLayout<Real>::kRows);
-      y0[r] = broadcast_rows(d.y + ib, r * PairLayout<Real>::kRows);
-      z0[r] = broadcast_rows(d.z + ib, r * PairLayout<Real>::kRows);
-    }
+  HWY_INLINE void load(const PairPositionsOf<Real>&, int h) {
+    ib = h * kH;
     shift = -1;
   }
   HWY_INLINE void follow(const PairPositionsOf<Real>& d, int s) {
@@ -302,9 +297,9 @@ struct ShiftedHalf {
     shift = s;
     const Vec3& by = d.shifts[s];
     for (int r = 0; r < kVectors; ++r) {
-      x[r] = x0[r] - by[0];
-      y[r] = y0[r] - by[1];
-      z[r] = z0[r] - by[2];
+      x[r] = broadcast_rows(d.x + ib, r * PairLayout<Real>::kRows) - by[0];
+      y[r] = broadcast_rows(d.y + ib, r * PairLayout<Real>::kRows) - by[1];
+      z[r] = broadcast_rows(d.z + ib, r * PairLayout<Real>::kRows) - by[2];
     }
   }
 };
