@@ -322,8 +322,9 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Re
 
 // Forms: a combination of pair forms (Sum, SharedSwitch). Real: the precision of the pair
 // arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
-// energies (without them, half_lj and half_coulomb are not touched).
-template <class Forms, class Real, bool kEnergies>
+// energies (without them, half_lj and half_coulomb are not touched). kMasks: also the inside
+// masks, where inside_masks is given (without, it is ignored: a test per row would slow the loop).
+template <class Forms, class Real, bool kEnergies, bool kMasks>
 void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
                   double* half_coulomb, std::uint32_t* inside_masks) {
   // A local copy: no store in the loop can change it, so the forms' constants are read before it.
@@ -362,7 +363,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
                   dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = mask_from_bits<Real>(bits) & (r2 < cutoff2);
-          if (inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
+          if (kMasks && inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
           const V r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
           const V rinv = simd_rsqrt(r2s);
           const PairDistance<Real> p{r2s, rinv, rinv * rinv};
@@ -381,7 +382,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
         add_j(fy + jb, fyj);
         add_j(fz + jb, fzj);
       }
-      if (inside_masks) inside_masks[e] = inside_bits;
+      if (kMasks && inside_masks) inside_masks[e] = inside_bits;
     }
     const int ib = h * kH;
     for (int ii = 0; ii < kH; ii += kRows) {
@@ -593,16 +594,18 @@ using HessianKernelOf = void (*)(const PairViewOf<Real>&, const Real*, const Rea
                                  int, int, Real*, Real*, Real*);
 
 // The kernel of the first selected combination (null if none is).
-template <class Real, bool kEnergies, class... Forms>
+template <class Real, bool kEnergies, bool kMasks, class... Forms>
 ForceKernelOf<Real> force_kernel_among(const PairFormConstants& forms, TypeList<Forms...>) {
   ForceKernelOf<Real> kernel = nullptr;
-  (void)((Forms::selected(forms) && (kernel = force_halves<Forms, Real, kEnergies>, true)) || ...);
+  (void)((Forms::selected(forms) && (kernel = force_halves<Forms, Real, kEnergies, kMasks>, true)) || ...);
   return kernel;
 }
+// Energies are rare (sampled steps): their kernel keeps masks where given.
 template <class Real>
-ForceKernelOf<Real> force_kernel_for(const PairFormConstants& forms, bool energies) {
-  return energies ? force_kernel_among<Real, true>(forms, Combinations{})
-                  : force_kernel_among<Real, false>(forms, Combinations{});
+ForceKernelOf<Real> force_kernel_for(const PairFormConstants& forms, bool energies, bool masks) {
+  if (energies) return force_kernel_among<Real, true, true>(forms, Combinations{});
+  return masks ? force_kernel_among<Real, false, true>(forms, Combinations{})
+               : force_kernel_among<Real, false, false>(forms, Combinations{});
 }
 template <class Real, class... Forms>
 HessianKernelOf<Real> hessian_kernel_among(const PairFormConstants& forms, TypeList<Forms...>) {

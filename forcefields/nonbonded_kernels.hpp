@@ -85,9 +85,10 @@ using ExcludedKernelOf = void (*)(const PairViewOf<Real>&, const NeighborList::E
 namespace simd {
 
 // The kernels of the pair forms `forms` configures (their variants, and one switch for the vdw
-// and Coulomb forms where both potential-switch alike). energies: false for forces only.
-ForceKernel force_kernel(const PairFormConstants& forms, bool energies);
-SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies);
+// and Coulomb forms where both potential-switch alike). energies: false for forces only. masks:
+// the force kernel records inside_masks where given (a kernel chosen without may ignore them).
+ForceKernel force_kernel(const PairFormConstants& forms, bool energies, bool masks);
+SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies, bool masks);
 MaskKernel mask_kernel();
 SingleMaskKernel single_mask_kernel();
 HessianKernel hessian_kernel(const PairFormConstants& forms);

@@ -12,8 +12,8 @@ namespace vimd {
 namespace HWY_NAMESPACE {
 
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
-ForceKernel ForceKernelFor(const PairFormConstants& forms, bool energies) {
-  return force_kernel_for<double>(forms, energies);
+ForceKernel ForceKernelFor(const PairFormConstants& forms, bool energies, bool masks) {
+  return force_kernel_for<double>(forms, energies, masks);
 }
 HessianKernel HessianKernelFor(const PairFormConstants& forms) {
   return hessian_kernel_among<double>(forms, Combinations{});
@@ -41,8 +41,8 @@ HWY_EXPORT(Lanes);
 
 namespace simd {
 
-ForceKernel force_kernel(const PairFormConstants& forms, bool energies) {
-  return checked_kernel(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(forms, energies));
+ForceKernel force_kernel(const PairFormConstants& forms, bool energies, bool masks) {
+  return checked_kernel(HWY_DYNAMIC_DISPATCH(ForceKernelFor)(forms, energies, masks));
 }
 
 HessianKernel hessian_kernel(const PairFormConstants& forms) {

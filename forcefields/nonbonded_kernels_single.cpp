@@ -12,8 +12,8 @@ namespace vimd {
 namespace HWY_NAMESPACE {
 
 // Entry points of this target, for HWY_DYNAMIC_DISPATCH.
-SingleForceKernel SingleForceKernelFor(const PairFormConstants& forms, bool energies) {
-  return force_kernel_for<float>(forms, energies);
+SingleForceKernel SingleForceKernelFor(const PairFormConstants& forms, bool energies, bool masks) {
+  return force_kernel_for<float>(forms, energies, masks);
 }
 SingleHessianKernel SingleHessianKernelFor(const PairFormConstants& forms) {
   return hessian_kernel_among<float>(forms, Combinations{});
@@ -35,8 +35,8 @@ HWY_EXPORT(SingleExcludedKernelFor);
 
 namespace simd {
 
-SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies) {
-  return checked_kernel(HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(forms, energies));
+SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies, bool masks) {
+  return checked_kernel(HWY_DYNAMIC_DISPATCH(SingleForceKernelFor)(forms, energies, masks));
 }
 
 SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms) {

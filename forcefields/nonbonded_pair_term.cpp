@@ -312,9 +312,11 @@ void NonbondedPairTerm::forces(Workspace& w, const Visit& visit, const Coords& q
                                std::span<double> energies, bool single, TermMasks* keep) const {
   const bool with_energies = !energies.empty();
   if (single)
-    add_pair_forces<float>(w, visit, simd::single_force_kernel(forms_, with_energies), q, f, energies, keep);
+    add_pair_forces<float>(w, visit, simd::single_force_kernel(forms_, with_energies, keep != nullptr), q, f, energies,
+                           keep);
   else
-    add_pair_forces<double>(w, visit, simd::force_kernel(forms_, with_energies), q, f, energies, keep);
+    add_pair_forces<double>(w, visit, simd::force_kernel(forms_, with_energies, keep != nullptr), q, f, energies,
+                            keep);
 }
 
 template <class Real, class Kernel>
