@@ -127,15 +127,18 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
       }
       const Layout::Triangle& t = L.triangles[cl.slot];
       const int side_position[3] = {t.ab, t.ac, t.bc};
+      const bool rotated = status == SettleStatus::rotated;
       ClusterOutcome out;
-      out.iterations = status == SettleStatus::rotated ? 1 : 0;
+      out.iterations = rotated ? 1 : 0;
       out.worst = cl.begin + side_position[static_cast<int>(result[kWorstSide * kSettleBatch + k])];
       out.deviation = result[kDeviation * kSettleBatch + k];
       ws.record(c, out);
+      // Where q already satisfies the constraints it stays as it is; the velocities follow the same
+      // formula as Layout::set_step_velocity, computed in the kernel's vectors.
       const int atoms[3] = {t.apex, t.h1, t.h2};
       for (int a = 0; a < 3; ++a)
         for (int d = 0; d < 3; ++d) {
-          if (status == SettleStatus::rotated) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
+          if (rotated) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
           if (velocity) velocity->v(d, atoms[a]) = result[(kVelAx + 3 * a + d) * kSettleBatch + k];
         }
     }

@@ -288,7 +288,7 @@ struct ShiftedHalf {
   SimdVec<Real> x[kVectors], y[kVectors], z[kVectors];
   int shift = -1, ib = 0;
 
-  HWY_INLINE void load(const PairPositionsOf<Real>&, int h) {
+  HWY_INLINE void start(int h) {
     ib = h * kH;
     shift = -1;
   }
@@ -316,7 +316,7 @@ using HalfDataOf = HalfData<typename Forms::template Half<Real>, Real>;
 
 template <class Forms, class Real>
 HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Real>& hi) {
-  hi.positions.load(d, h);
+  hi.positions.start(h);
   Forms::load(d, h * kH, hi.forms);
 }
 
@@ -482,7 +482,7 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
   if (skip < skip_from) skip = std::nextafter(skip, INFINITY);
   for (int h = h0; h < h1; ++h) {
     ShiftedHalf<Real> positions;
-    positions.load(d, h);
+    positions.start(h);
     const int e0 = d.half_start[h], count = d.half_start[h + 1] - e0;
     const NeighborList::Entry* entries = d.half_entries ? d.half_entries[h] : d.entries + e0;
     const float* nearest = d.half_nearest ? d.half_nearest[h] : nullptr;
