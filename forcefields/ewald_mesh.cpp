@@ -33,12 +33,16 @@ std::vector<double> bspline_moduli(int n, int p) {
   return b;
 }
 
+// Rows of an odd length put every other row of the real grid off FFTW's SIMD alignment: its
+// transforms then take about a fifth longer.
+int even_row(int length) { return length + length % 2; }
+
 }  // namespace
 
 struct EwaldMeshSetup {
   std::array<int, 3> n;
   int order;
-  int row;          // real-grid row length: a charge's z points (vectors of them) never wrap
+  int row;          // real-grid row length: a charge's z points (vectors of them) never wrap; even
   Vec3 scale;       // n/L: d(grid coordinate)/dx, nm⁻¹
   std::vector<double> charge;
   double net_charge_energy;
@@ -49,7 +53,7 @@ struct EwaldMeshSetup {
   std::vector<double> energy_weight;
 
   EwaldMeshSetup(const System& system, const EwaldMeshParameters& p)
-      : n(p.grid), order(p.order), row(p.grid[2] + spline_stride(p.order) - 1), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
+      : n(p.grid), order(p.order), row(even_row(p.grid[2] + spline_stride(p.order) - 1)), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
     if (!system.box.periodic())
       throw std::invalid_argument("the Ewald mesh (PME) needs a box periodic in x, y and z");
     if (p.order < 3 || p.order > kMaxSplineOrder)
