@@ -472,41 +472,64 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   }
 }
 
+// The bits of an entry's pairs within the range at the positions (every listed pair is looked at).
+template <class Real>
+HWY_INLINE std::uint32_t entry_inside_bits(const PairPositionsOf<Real>& d, ShiftedHalf<Real>& positions,
+                                           NeighborList::Entry entry, SimdVec<Real> range2) {
+  using V = SimdVec<Real>;
+  constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
+  positions.follow(d, entry.shift());
+  std::uint32_t inside_bits = 0;
+  for (int js = 0; js < kC; js += kJ) {
+    const int jb = entry.j_cluster() * kC + js;
+    const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
+    // Every lane, listed or not (padding and excluded pairs have finite distances too); the
+    // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
+    for (int ii = 0; ii < kH; ii += kRows) {
+      const V dx = positions.x[ii / kRows] - xj, dy = positions.y[ii / kRows] - yj, dz = positions.z[ii / kRows] - zj;
+      inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
+    }
+  }
+  return inside_bits & entry.mask;
+}
+
 template <class Real>
 void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
-  constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   const V range2 = V::broadcast(d.cutoff2);
   // In the entries' precision, rounded up: an entry at or beyond it is beyond skip_from.
   float skip = static_cast<float>(skip_from);
   if (skip < skip_from) skip = std::nextafter(skip, INFINITY);
+  const hn::CappedTag<float, 16> df;
+  const hn::Rebind<std::int32_t, decltype(df)> di;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  constexpr int kBlock = 256;
+  HWY_ALIGN std::int32_t look[kBlock];  // a vector's compressed store stays below its own end
   for (int h = h0; h < h1; ++h) {
     ShiftedHalf<Real> positions;
     positions.start(h);
     const int e0 = d.half_start[h], count = d.half_start[h + 1] - e0;
     const NeighborList::Entry* entries = d.half_entries ? d.half_entries[h] : d.entries + e0;
     const float* nearest = d.half_nearest ? d.half_nearest[h] : nullptr;
-    for (int k = 0; k < count; ++k) {
-      const int e = e0 + k;
-      if (nearest && nearest[k] >= skip) {
-        inside_masks[e] = 0;
-        continue;
+    if (!nearest) {
+      for (int k = 0; k < count; ++k) inside_masks[e0 + k] = entry_inside_bits(d, positions, entries[k], range2);
+      continue;
+    }
+    // Which entries are nearer than skip is unpredictable: they are listed first, by vectors, as a
+    // branch per entry would cost more than the look itself.
+    for (int k0 = 0; k0 < count; k0 += kBlock) {
+      const int n = std::min(kBlock, count - k0);
+      int m = 0, k = 0;
+      for (; k + lanes <= n; k += lanes) {
+        const auto near = hn::Lt(hn::LoadU(df, nearest + k0 + k), hn::Set(df, skip));
+        m += static_cast<int>(hn::CompressStore(hn::Iota(di, k0 + k), hn::RebindMask(di, near), di, look + m));
       }
-      const NeighborList::Entry entry = entries[k];
-      positions.follow(d, entry.shift());
-      std::uint32_t inside_bits = 0;
-      for (int js = 0; js < kC; js += kJ) {
-        const int jb = entry.j_cluster() * kC + js;
-        const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
-        // Every lane, listed or not (padding and excluded pairs have finite distances too); the
-        // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
-        for (int ii = 0; ii < kH; ii += kRows) {
-          const V dx = positions.x[ii / kRows] - xj, dy = positions.y[ii / kRows] - yj,
-                  dz = positions.z[ii / kRows] - zj;
-          inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
-        }
+      for (; k < n; ++k) {
+        look[m] = k0 + k;
+        m += nearest[k0 + k] < skip;
       }
-      inside_masks[e] = inside_bits & entry.mask;
+      std::fill_n(inside_masks + e0 + k0, n, 0u);
+      for (int t = 0; t < m; ++t) inside_masks[e0 + look[t]] = entry_inside_bits(d, positions, entries[look[t]], range2);
     }
   }
 }
