@@ -108,7 +108,9 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
                             velocity ? velocity->h : 0};
   const int n_triangles = static_cast<int>(L.triangle_clusters.size());
   const int n_batches = (n_triangles + kSettleBatch - 1) / kSettleBatch;
-#pragma omp parallel for schedule(guided) if (L.n_constraints() > kParallelMin)
+  // Static: each thread writes the molecules whose atoms the integrator's per-atom loops (static
+  // too, molecules in atom order) give it, so their cache lines stay on its core.
+#pragma omp parallel for schedule(static) if (L.n_constraints() > kParallelMin)
   for (int batch = 0; batch < n_batches; ++batch) {
     double in[kSettleInFields * kSettleBatch], result[kSettleOutFields * kSettleBatch];
     const int first = batch * kSettleBatch, count = std::min(n_triangles - first, kSettleBatch);

@@ -27,13 +27,14 @@ HWY_INLINE V dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z 
 HWY_INLINE V3 cross(const V3& a, const V3& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-HWY_INLINE V3 normalized(const V3& a) { return (1.0 / simd_sqrt(dot(a, a))) * a; }
+HWY_INLINE V3 normalized(const V3& a) { return simd_rsqrt(dot(a, a)) * a; }
 
 // Minimum image along one axis of length L (0: not periodic), as Box::minimum_image.
 HWY_INLINE V minimum_image(V d, double length) {
   if (!(length > 0)) return d;
   const SimdTag tag;
   const auto far = hn::Gt(simd_abs(d).v, hn::Set(tag, 0.5 * length));
+  if (hn::AllFalse(tag, far)) return d;  // as nearly always: the division is the costly part
   return {hn::IfThenElse(far, (d - length * V{hn::Round((d / length).v)}).v, d.v)};
 }
 HWY_INLINE V3 minimum_image(const V3& d, const double* box) {
