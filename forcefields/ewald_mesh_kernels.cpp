@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "forcefields/bspline.hpp"
@@ -27,28 +29,86 @@ struct OrderKernels {
   static constexpr int L = static_cast<int>(hn::MaxLanes(D()));
   static constexpr int V = (P + L - 1) / L;  // vectors per row of P points, V·L ≤ S
 
-  static void splines(const MeshAtoms<Real>& m, const double* q, bool second, int begin, int end) {
-    for (int i = begin; i < end; ++i)
-      for (int d = 0; d < 3; ++d) {
-        const int n = m.n[d];
-        double u = q[3 * i + d] * m.scale[d];  // grid coordinate
-        u -= n * std::floor(u / n);
-        int c = static_cast<int>(u);
-        const Real t = static_cast<Real>(u - c);
-        if (c >= n) c -= n;  // u rounded up to n
-        m.cell[d][i] = c;
-        SplineWeights<Real> w{};  // (second set only when asked: the compiler cannot tell)
-        spline_weights(t, P, second, w);
-        Real *value = m.value[d] + std::size_t(i) * S, *first = m.first[d] + std::size_t(i) * S;
-        for (int k = 0; k < S; ++k) {
-          value[k] = k < P ? w.value[k] : Real(0);
-          first[k] = k < P ? w.first[k] : Real(0);
-        }
-        if (second) {
-          Real* s = m.second[d] + std::size_t(i) * S;
-          for (int k = 0; k < S; ++k) s[k] = k < P ? w.second[k] : Real(0);
+  // One atom's cell and weights in direction d, the reference for the vectors below.
+  static void spline_of_atom(const MeshAtoms<Real>& m, const double* q, bool second, int i, int d) {
+    const int n = m.n[d];
+    double u = q[3 * i + d] * m.scale[d];  // grid coordinate
+    u -= n * std::floor(u / n);
+    int c = static_cast<int>(u);
+    const Real t = static_cast<Real>(u - c);
+    if (c >= n) c -= n;  // u rounded up to n
+    m.cell[d][i] = c;
+    SplineWeights<Real> w{};  // (second set only when asked: the compiler cannot tell)
+    spline_weights(t, P, second, w);
+    Real *value = m.value[d] + std::size_t(i) * S, *first = m.first[d] + std::size_t(i) * S;
+    for (int k = 0; k < S; ++k) {
+      value[k] = k < P ? w.value[k] : Real(0);
+      first[k] = k < P ? w.first[k] : Real(0);
+    }
+    if (second) {
+      Real* s = m.second[d] + std::size_t(i) * S;
+      for (int k = 0; k < S; ++k) s[k] = k < P ? w.second[k] : Real(0);
+    }
+  }
+
+  // Weights of as many atoms as a vector of doubles has lanes, for spline_weights to compute on
+  // vectors with the same arithmetic as on numbers (friends defined in a class do not take the
+  // target's pragma, hence HWY_ATTR).
+  using DA = hn::ScalableTag<double>;
+  using DW = hn::Rebind<Real, DA>;
+  struct Lanes {
+    hn::Vec<DW> v;
+    Lanes() = default;
+    HWY_ATTR Lanes(Real x) : v(hn::Set(DW(), x)) {}  // implicit, for the constants in spline_weights
+    HWY_ATTR explicit Lanes(hn::Vec<DW> x) : v(x) {}
+    friend HWY_ATTR Lanes operator+(Lanes a, Lanes b) { return Lanes(hn::Add(a.v, b.v)); }
+    friend HWY_ATTR Lanes operator-(Lanes a, Lanes b) { return Lanes(hn::Sub(a.v, b.v)); }
+    friend HWY_ATTR Lanes operator*(Lanes a, Lanes b) { return Lanes(hn::Mul(a.v, b.v)); }
+    friend HWY_ATTR Lanes operator/(Lanes a, Lanes b) { return Lanes(hn::Div(a.v, b.v)); }
+    friend HWY_ATTR Lanes operator-(Lanes a) { return Lanes(hn::Neg(a.v)); }
+  };
+
+  // Transposed stores (atom after atom, S weights each) exist for S = 4. Flattened, so that
+  // spline_weights, compiled for no target, inlines here and its arithmetic on Lanes with it.
+  [[gnu::flatten]] static void splines(const MeshAtoms<Real>& m, const double* q, bool second, int begin, int end) {
+    int i = begin;
+    if constexpr (S == 4) {
+      const DA da;
+      const DW dw;
+      const hn::Rebind<int32_t, DA> di;
+      constexpr int N = static_cast<int>(hn::MaxLanes(da));
+      for (; i + N <= end; i += N) {
+        hn::Vec<DA> x[3];
+        hn::LoadInterleaved3(da, q + 3 * std::size_t(i), x[0], x[1], x[2]);
+        for (int d = 0; d < 3; ++d) {
+          const auto n = hn::Set(da, double(m.n[d]));
+          auto u = hn::Mul(x[d], hn::Set(da, m.scale[d]));
+          u = hn::Sub(u, hn::Mul(n, hn::Floor(hn::Div(u, n))));
+          const auto c = hn::Trunc(u);
+          const auto cell = hn::DemoteTo(di, c);
+          hn::StoreU(hn::IfThenElseZero(hn::Lt(cell, hn::Set(di, m.n[d])), cell), di, m.cell[d] + i);
+          SplineWeights<Lanes> w;
+          spline_weights(Lanes(demoted(dw, hn::Sub(u, c))), P, second, w);
+          const std::size_t at = std::size_t(i) * S;
+          store_weights(w.value, m.value[d] + at);
+          store_weights(w.first, m.first[d] + at);
+          if (second) store_weights(w.second, m.second[d] + at);
         }
       }
+    }
+    for (; i < end; ++i)
+      for (int d = 0; d < 3; ++d) spline_of_atom(m, q, second, i, d);
+  }
+
+  static hn::Vec<DW> demoted(DW dw, hn::Vec<DA> v) {
+    if constexpr (std::is_same_v<Real, double>) return v;
+    else return hn::DemoteTo(dw, v);
+  }
+
+  static void store_weights(const std::array<Lanes, kMaxSplineOrder>& w, Real* out) {
+    const DW dw;
+    const auto last = P > 3 ? w[3].v : hn::Zero(dw);
+    hn::StoreInterleaved4(w[0].v, w[1].v, w[2].v, last, dw, out);
   }
 
   static void spread(const MeshAtoms<Real>& m, const double* u, int begin, int end, Real* grid) {

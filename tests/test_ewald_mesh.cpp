@@ -6,10 +6,15 @@
 
 #include <cmath>
 #include <complex>
+#include <random>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 #include "derivative_checks.hpp"
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh.hpp"
+#include "forcefields/ewald_mesh_kernels.hpp"
 #include "forcefields/nonbonded_kernels.hpp"
 #include "test_ff_systems.hpp"
 
@@ -288,6 +293,70 @@ TEST(EwaldMesh, SimdTargetsAgree) {
     }
     simd::use_target("");
   }
+}
+
+// The kernels' cells and weights, computed on vectors of atoms where the order allows, against
+// spline_weights atom by atom: every target, both precisions, a count that leaves a tail, atoms
+// outside the box and on its faces.
+template <class Real>
+void expect_kernel_splines_match(const MeshKernels<Real>& kernels, int p, const std::string& what) {
+  constexpr int n_atoms = 37;
+  const std::array<int, 3> n{16, 15, 14};
+  const std::array<double, 3> length{1.6, 1.5, 1.4};
+  Coords q(3, n_atoms);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> fraction(-1.3, 2.2);
+  for (int i = 0; i < n_atoms; ++i)
+    for (int d = 0; d < 3; ++d) q(d, i) = fraction(random) * length[d];
+  q(0, 3) = length[0];
+  q(1, 4) = 0.0;
+  q(2, 5) = -length[2];
+  q(0, 6) = std::nextafter(length[0], 0.0);
+  const int stride = spline_stride(p);
+  std::array<std::vector<int>, 3> cell;
+  std::array<std::vector<Real>, 3> value, first, second;
+  MeshAtoms<Real> atoms{};
+  atoms.n = n;
+  for (int d = 0; d < 3; ++d) {
+    atoms.scale[d] = n[d] / length[d];
+    cell[d].assign(n_atoms, -1);
+    value[d].assign(std::size_t(n_atoms) * stride, Real(-1));
+    first[d] = second[d] = value[d];
+    atoms.cell[d] = cell[d].data();
+    atoms.value[d] = value[d].data();
+    atoms.first[d] = first[d].data();
+    atoms.second[d] = second[d].data();
+  }
+  const int begin = 1;
+  kernels.splines(atoms, q.data(), true, begin, n_atoms);
+  const double tolerance = std::is_same_v<Real, float> ? 2e-6 : 1e-14;
+  for (int i = begin; i < n_atoms; ++i)
+    for (int d = 0; d < 3; ++d) {
+      double u = q(d, i) * atoms.scale[d];
+      u -= n[d] * std::floor(u / n[d]);
+      const int c = static_cast<int>(u);
+      EXPECT_EQ(cell[d][i], c % n[d]) << what << " atom " << i << " dim " << d;
+      SplineWeights<double> w{};
+      spline_weights(u - c, p, true, w);
+      for (int k = 0; k < stride; ++k) {
+        const std::size_t at = std::size_t(i) * stride + k;
+        EXPECT_NEAR(value[d][at], k < p ? w.value[k] : 0.0, tolerance) << what << " atom " << i << " k " << k;
+        EXPECT_NEAR(first[d][at], k < p ? w.first[k] : 0.0, tolerance) << what << " atom " << i << " k " << k;
+        EXPECT_NEAR(second[d][at], k < p ? w.second[k] : 0.0, 4 * tolerance) << what << " atom " << i << " k " << k;
+      }
+    }
+  for (int d = 0; d < 3; ++d) EXPECT_EQ(cell[d][0], -1) << what << ": an atom before begin was written";
+}
+
+TEST(EwaldMesh, KernelSplinesMatchTheWeightsAtomByAtom) {
+  for (const std::string& target : simd::available_targets()) {
+    simd::use_target(target);
+    for (int order : {3, 4, 5, 8}) {
+      expect_kernel_splines_match(mesh_kernels(order), order, target + " double p=" + std::to_string(order));
+      expect_kernel_splines_match(single_mesh_kernels(order), order, target + " float p=" + std::to_string(order));
+    }
+  }
+  simd::use_target("");
 }
 
 TEST(EwaldMesh, ForcesOnlyPassSkipsNoForce) {
