@@ -1,8 +1,8 @@
 #pragma once
 // The nonbonded pair kernels behind NonbondedPairTerm, compiled for every SIMD target Highway
-// supports on x86 (SSE4, AVX2, AVX-512, and a portable fallback) and chosen at run time for the
-// CPU the program runs on (nonbonded_kernels-inl.h). Nothing here depends on the target: the view
-// is plain arrays, the kernels are plain function pointers.
+// supports on x86 (SSE4, AVX2, AVX-512) and chosen at run time for the CPU the program runs on
+// (nonbonded_kernels-inl.h). Nothing here depends on the target: the view is plain arrays, the
+// kernels are plain function pointers.
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
