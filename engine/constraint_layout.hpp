@@ -5,10 +5,7 @@
 // constraints is contiguous, with what each cluster's solve needs. ClusterFactors: S = G W Gᵀ
 // factorised per cluster. Workspace: a Constraints object's scratch.
 #include <Eigen/LU>
-#include <Eigen/OrderingMethods>
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
-#include <Eigen/SparseLU>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -145,27 +142,14 @@ struct Layout {
   }
 };
 
-// SimplicialLDLT on a pattern that the Layout has already ordered for low fill, refactorised
-// through Eigen's factorize_preordered: the public factorize() copies the matrix (a heap
-// allocation) on every call, which a step must not do.
-class PreorderedLDLT
-    : public Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> {
- public:
-  // `full` holds both triangles; only the upper one is read.
-  void refactorize(const Eigen::SparseMatrix<double>& full) { factorize_preordered<true>(full); }
-};
-
 // S = G_left W G_rightᵀ factorised cluster by cluster: what a Constraints::Factorization holds.
+// The dense and sparse clusters' factorisations live in engine/cluster_factors.cpp, the one file
+// that instantiates Eigen's LU and sparse solvers (compiled in every includer, they were most of
+// the build time of the constraint solvers and their tests); small clusters stay inline here.
 struct ClusterFactors {
-  struct Dynamic {
-    Eigen::MatrixXd dense_matrix;
-    Eigen::PartialPivLU<Eigen::MatrixXd> dense;
-    Eigen::SparseMatrix<double> matrix;
-    PreorderedLDLT ldlt;
-    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
-    bool ldlt_analysed = false, lu_analysed = false;
-    bool symmetric = true;  // which of ldlt / lu holds the current factorisation
-    Eigen::VectorXd rhs, x;
+  struct Dynamic;  // a dense or sparse cluster's matrix, factors and solve buffers
+  struct DeleteDynamic {
+    void operator()(Dynamic* d) const;
   };
 
   std::shared_ptr<const Layout> layout;
@@ -173,99 +157,45 @@ struct ClusterFactors {
   // of a pivoted LU and its solves; a degenerate (collinear) triangle gives non-finite values as
   // the LU did.
   std::vector<Eigen::Matrix3d> small_inverse;
-  std::unique_ptr<Dynamic[]> dynamic;  // SparseLU is not movable, so no std::vector
+  std::unique_ptr<Dynamic[], DeleteDynamic> dynamic;  // SparseLU is not movable, so no std::vector
   Coords r_left, r_right;
   bool factorized = false;
   bool symmetric = false;  // factorised with q_left = q_right: r_left holds G's bond vectors
 
   // Sizes the storage for a layout once; later calls with the same layout are free.
-  void bind(const std::shared_ptr<const Layout>& l) {
-    if (layout == l) return;
-    layout = l;
-    factorized = false;
-    small_inverse.assign(l->n_small, Eigen::Matrix3d::Identity());
-    dynamic = std::make_unique<Dynamic[]>(l->dynamic.size());
-    for (const auto& cl : l->clusters) {
-      if (cl.kind == Kind::Small) continue;
-      Dynamic& d = dynamic[cl.slot];
-      const int m = cl.size();
-      if (cl.kind == Kind::Dense) {
-        d.dense_matrix.resize(m, m);
-        d.dense = Eigen::PartialPivLU<Eigen::MatrixXd>(m);
-      } else {
-        d.matrix = l->dynamic[cl.slot].pattern;
-      }
-      d.rhs.resize(m);
-      d.x.resize(m);
-    }
-    r_left.resize(3, l->atom_i.size());
-    r_right.resize(3, l->atom_i.size());
-  }
+  void bind(const std::shared_ptr<const Layout>& l);
 
   // Factorises S = G_left W G_rightᵀ of one cluster from its bond vectors (columns of the
   // cluster-ordered arrays). False if a sparse factorisation finds S singular.
   bool factor(const Layout::Cluster& cl, const Coords& rl, const Coords& rr, const double* w, bool symmetric) {
+    if (cl.kind != Kind::Small) return factor_dynamic(cl, rl, rr, w, symmetric);
     const Layout& L = *layout;
     const int b = cl.begin, m = cl.size();
-    if (cl.kind == Kind::Small) {
-      Eigen::Matrix3d s = Eigen::Matrix3d::Identity();  // unused rows stay identity
-      for (int a = 0; a < m; ++a)
-        for (int c = 0; c < m; ++c) s(a, c) = L.coefficient(b + a, b + c, w) * rl.col(b + a).dot(rr.col(b + c));
-      small_inverse[cl.slot] = s.inverse();
-      return true;
-    }
-    Dynamic& d = dynamic[cl.slot];
-    const Layout::Dynamic& ld = L.dynamic[cl.slot];
-    if (cl.kind == Kind::Dense) {
-      d.dense_matrix.setZero();
-      for (int a = 0; a < m; ++a)
-        d.dense_matrix(a, a) = L.coefficient(b + a, b + a, w) * rl.col(b + a).dot(rr.col(b + a));
-      for (const auto& e : ld.couplings)
-        d.dense_matrix(e.a, e.b) = e.sign * w[e.atom] * rl.col(b + e.a).dot(rr.col(b + e.b));
-      d.dense.compute(d.dense_matrix);
-      d.symmetric = symmetric;
-      return true;
-    }
-    double* values = d.matrix.valuePtr();
+    Eigen::Matrix3d s = Eigen::Matrix3d::Identity();  // unused rows stay identity
     for (int a = 0; a < m; ++a)
-      values[ld.diagonal_position[a]] = L.coefficient(b + a, b + a, w) * rl.col(b + a).dot(rr.col(b + a));
-    for (std::size_t k = 0; k < ld.couplings.size(); ++k) {
-      const auto& e = ld.couplings[k];
-      values[ld.coupling_position[k]] = e.sign * w[e.atom] * rl.col(b + e.a).dot(rr.col(b + e.b));
-    }
-    d.symmetric = symmetric;
-    if (symmetric) {
-      if (!d.ldlt_analysed) d.ldlt.analyzePattern(d.matrix), d.ldlt_analysed = true;
-      d.ldlt.refactorize(d.matrix);
-      return d.ldlt.info() == Eigen::Success;
-    }
-    if (!d.lu_analysed) d.lu.analyzePattern(d.matrix), d.lu_analysed = true;
-    d.lu.factorize(d.matrix);
-    return d.lu.info() == Eigen::Success;
+      for (int c = 0; c < m; ++c) s(a, c) = L.coefficient(b + a, b + c, w) * rl.col(b + a).dot(rr.col(b + c));
+    small_inverse[cl.slot] = s.inverse();
+    return true;
   }
 
   // x ← S⁻¹ x for one cluster; x points at the cluster's m values.
   void solve(const Layout::Cluster& cl, double* x) {
+    if (cl.kind != Kind::Small) return solve_dynamic(cl, x);
     const int m = cl.size();
-    if (cl.kind == Kind::Small) {
-      // Loops of fixed length: with m as their bound, g++ turns them into memcpy calls.
-      Eigen::Vector3d rhs;
-      for (int a = 0; a < kSmallMax; ++a) rhs[a] = a < m ? x[a] : 0.0;
-      const Eigen::Vector3d sol = small_inverse[cl.slot] * rhs;
-      for (int a = 0; a < kSmallMax; ++a)
-        if (a < m) x[a] = sol[a];
-      return;
-    }
-    Dynamic& d = dynamic[cl.slot];
-    d.rhs = Eigen::Map<const Eigen::VectorXd>(x, m);
-    if (cl.kind == Kind::Dense)
-      d.x = d.dense.solve(d.rhs);
-    else if (d.symmetric)
-      d.x = d.ldlt.solve(d.rhs);
-    else
-      d.x = d.lu.solve(d.rhs);
-    Eigen::Map<Eigen::VectorXd>(x, m) = d.x;
+    // Loops of fixed length: with m as their bound, g++ turns them into memcpy calls.
+    Eigen::Vector3d rhs;
+    for (int a = 0; a < kSmallMax; ++a) rhs[a] = a < m ? x[a] : 0.0;
+    const Eigen::Vector3d sol = small_inverse[cl.slot] * rhs;
+    for (int a = 0; a < kSmallMax; ++a)
+      if (a < m) x[a] = sol[a];
   }
+
+  // A buffer of a dense or sparse cluster's size, free between solves.
+  double* scratch(const Layout::Cluster& cl);
+
+ private:
+  bool factor_dynamic(const Layout::Cluster& cl, const Coords& rl, const Coords& rr, const double* w, bool symmetric);
+  void solve_dynamic(const Layout::Cluster& cl, double* x);
 };
 
 // A Constraints object's scratch, reused across calls so that a step does not allocate (its

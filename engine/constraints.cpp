@@ -3,6 +3,8 @@
 // acceleration, the projection onto ker G).
 #include "engine/constraints.hpp"
 
+#include <Eigen/OrderingMethods>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -387,7 +389,7 @@ void Constraints::Factorization::solve(Eigen::VectorXd& rhs) const {
   for (int c = 0; c < nc; ++c) {
     const auto& cl = L.clusters[c];
     double local[kSmallMax];
-    double* x = cl.kind == Kind::Small ? local : f.dynamic[cl.slot].x.data();
+    double* x = cl.kind == Kind::Small ? local : f.scratch(cl);
     // Gather into cluster order; solve() copies dynamic clusters into their rhs buffer first,
     // so using x as the carrier does not alias.
     for (int a = 0; a < cl.size(); ++a) x[a] = rhs[L.original[cl.begin + a]];
