@@ -143,11 +143,12 @@ struct Layout {
 };
 
 // S = G_left W G_rightᵀ factorised cluster by cluster: what a Constraints::Factorization holds.
-// The dense and sparse clusters' factorisations live in engine/cluster_factors.cpp, the one file
-// that instantiates Eigen's LU and sparse solvers (compiled in every includer, they were most of
-// the build time of the constraint solvers and their tests); small clusters stay inline here.
+// The dense and sparse clusters' factorisations live in engine/cluster_factors.cpp, so that Eigen's
+// LU and sparse solvers, slow to compile, are instantiated in that one file and not in every
+// includer; small clusters, the hot path, stay inline here.
 struct ClusterFactors {
   struct Dynamic;  // a dense or sparse cluster's matrix, factors and solve buffers
+  // Dynamic is complete only in cluster_factors.cpp, so deleting it must happen there.
   struct DeleteDynamic {
     void operator()(Dynamic* d) const;
   };

@@ -14,8 +14,8 @@ set_tests_properties(e2e_mdanalysis cli_errors gromacs_energy_agreement PROPERTI
 add_test(NAME study_quick
          COMMAND ${PY} ${CMAKE_SOURCE_DIR}/validation/check_report.py --run-quick
                  --out ${CMAKE_BINARY_DIR}/report-quick --vimd $<TARGET_FILE:vimd>)
-# The longest tests (about 100 s and 20 s, the rest a few seconds each) start first, so on a fresh
-# clone, where ctest has no timings yet, they do not run alone at the end.
+# The two longest tests start first, so on a fresh clone, where ctest has no timings yet, they do
+# not run alone at the end.
 set_tests_properties(study_quick PROPERTIES TIMEOUT 900 COST 100)
 set_tests_properties(gromacs_energy_agreement PROPERTIES COST 20)
 # The Python module (issue 11): energies and trajectories equal to the command line's bit for bit,
