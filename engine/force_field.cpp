@@ -8,14 +8,10 @@ namespace vimd {
 
 namespace {
 
-// From this many atoms the force arrays are zeroed by all threads: zeroing a large one on one
-// thread keeps the others waiting at every evaluation.
-constexpr Eigen::Index kParallelZeroAtoms = 4096;
-
 void set_zero(Coords& x, Eigen::Index n_atoms) {
   x.resize(3, n_atoms);
   double* p = x.data();
-#pragma omp parallel for schedule(static) if (n_atoms >= kParallelZeroAtoms)
+#pragma omp parallel for schedule(static) if (n_atoms >= kParallelMinAtoms)
   for (Eigen::Index i = 0; i < n_atoms; ++i) p[3 * i] = p[3 * i + 1] = p[3 * i + 2] = 0;
 }
 

@@ -19,10 +19,6 @@ namespace {
 
 constexpr int kCluster = NeighborList::kClusterSize;
 
-// Below this many atoms the per-step O(N) loop (the displacement check) runs on one thread:
-// starting a team costs more than the work (small systems are evaluated very often by the
-// variational integrators).
-constexpr int kParallelAtoms = 4096;
 // A search (binning, bounds, exclusion masks, then a few hundred distance tests per atom) does far
 // more per atom, and the other threads would wait through its serial parts: it shares from fewer.
 constexpr int kParallelSearchAtoms = 1024;
@@ -118,7 +114,7 @@ double max_displacement(const Coords& a, const Coords& b) {
   const double* then = b.data();
   const Eigen::Index n = a.cols();
   double max_d2 = 0;
-#pragma omp parallel for simd schedule(static) reduction(max : max_d2) if (n >= kParallelAtoms)
+#pragma omp parallel for simd schedule(static) reduction(max : max_d2) if (n >= kParallelMinAtoms)
   for (Eigen::Index i = 0; i < n; ++i) {
     const double dx = now[3 * i] - then[3 * i], dy = now[3 * i + 1] - then[3 * i + 1],
                  dz = now[3 * i + 2] - then[3 * i + 2];

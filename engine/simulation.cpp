@@ -59,8 +59,6 @@ std::string atom_label(const System& system, int i) {
 constexpr double kAbsurdForce = 1e6;     // kJ/mol/nm
 constexpr double kAbsurdVelocity = 1e3;  // nm/ps
 constexpr double kAbsurdPosition = 1e6;  // nm
-// Per-atom loops of the run loop go parallel from this many atoms (below, a team costs more).
-constexpr int kParallelCheckAtoms = 256;
 
 }  // namespace
 
@@ -80,7 +78,7 @@ void Simulation::check_sane(const State& state, State* copy) const {
   // A parallel look first (copying as it reads); the serial pass below, which names the atoms,
   // runs only on a find.
   bool any_bad = false;
-#pragma omp parallel for schedule(static) reduction(|| : any_bad) if (n >= kParallelCheckAtoms)
+#pragma omp parallel for schedule(static) reduction(|| : any_bad) if (n >= kParallelMinAtoms)
   for (int i = 0; i < n; ++i) {
     any_bad = any_bad || bad(state.q, i, kAbsurdPosition) || bad(state.v, i, kAbsurdVelocity) ||
               bad(state.f, i, kAbsurdForce);

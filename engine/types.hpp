@@ -10,4 +10,10 @@ using Vec3 = Eigen::Vector3d;
 constexpr double kBoltzmann = 0.0083144626181532;  // kJ/mol/K
 constexpr double kCoulomb = 138.935458;            // kJ/mol nm e^-2, GROMACS ONE_4PI_EPS0
 
+// Per-atom loops (integrators, force zeroing, the run loop's checks, the neighbour list's
+// displacement check) run on all threads from this many atoms, each with a static schedule, so a
+// thread touches the same atoms in every one and their cache lines stay on its core. Below it,
+// starting a team costs more than the work.
+constexpr int kParallelMinAtoms = 256;
+
 }  // namespace vimd

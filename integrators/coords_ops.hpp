@@ -9,9 +9,6 @@
 
 namespace vimd {
 
-// Below this many atoms a loop runs on one thread: starting a team costs more than the work.
-constexpr int kParallelMinAtoms = 256;
-
 // f(i) for i = 0..n−1, in parallel (static partition).
 template <class F>
 void parallel_for(int n, F&& f) {
