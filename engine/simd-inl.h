@@ -74,14 +74,22 @@ template <class Real>
 HWY_INLINE double simd_sum(SimdVec<Real> x) {
   return static_cast<double>(hn::GetLane(hn::SumOfLanes(typename SimdVec<Real>::Tag(), x.v)));
 }
-// 1/√x to full double precision without the slow square root and division: the single-precision
-// estimate (12 bits) and three Newton steps (error 1e-7, 1e-14, then rounding). The division and
-// square root units are the pair loops' bottleneck otherwise.
+// 1/√x to full double precision without the slow square root and division: a hardware estimate
+// and Newton steps, each of which squares the relative error. AVX-512 estimates doubles to 14 bits
+// (two steps: 6e-9, then rounding); other targets take the single-precision estimate (12 bits,
+// three steps: 1e-7, 1e-14, then rounding). The division and square root units are the pair
+// loops' bottleneck otherwise.
 HWY_INLINE SimdDouble simd_rsqrt(SimdDouble x) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+  constexpr int kNewtonSteps = 2;
+  hn::Vec<SimdTag> y{_mm512_rsqrt14_pd(x.v.raw)};
+#else
+  constexpr int kNewtonSteps = 3;
   const hn::Rebind<float, SimdTag> df;
   hn::Vec<SimdTag> y = hn::PromoteTo(SimdTag(), hn::ApproximateReciprocalSqrt(hn::DemoteTo(df, x.v)));
+#endif
   const hn::Vec<SimdTag> half_x = hn::Mul(x.v, hn::Set(SimdTag(), 0.5)), three_halves = hn::Set(SimdTag(), 1.5);
-  for (int k = 0; k < 3; ++k) y = hn::Mul(y, hn::NegMulAdd(half_x, hn::Mul(y, y), three_halves));
+  for (int k = 0; k < kNewtonSteps; ++k) y = hn::Mul(y, hn::NegMulAdd(half_x, hn::Mul(y, y), three_halves));
   return {y};
 }
 // Single precision: the estimate and one Newton step (error ~2e-7, a few float ulp, as GROMACS's
