@@ -18,20 +18,27 @@ namespace {
 constexpr char kMagic[8] = {'V', 'I', 'M', 'D', 'C', 'P', 'T', '1'};
 constexpr char kEnd[8] = {'E', 'N', 'D', 'V', 'I', 'M', 'D', '.'};
 
+[[noreturn]] void write_failed(const std::filesystem::path& file, const std::string& what) {
+  throw std::runtime_error(file.string() + ": cannot write the checkpoint (" + what + "): " + std::strerror(errno));
+}
+
+// Streams the checkpoint to a file descriptor through a small buffer, arrays straight from their own
+// memory: the last checkpoint comes on top of everything a run holds, and a copy of the whole file
+// would raise the run's peak memory by its size.
 class Writer {
  public:
-  std::string bytes;
+  Writer(int fd, std::filesystem::path file) : fd_(fd), file_(std::move(file)) { buffer_.reserve(kBuffer); }
   template <class T>
   void raw(const T& x) {
-    bytes.append(reinterpret_cast<const char*>(&x), sizeof x);
+    put(&x, sizeof x);
   }
   void text(const std::string& s) {
     raw<std::uint64_t>(s.size());
-    bytes += s;
+    put(s.data(), s.size());
   }
   void doubles(const double* p, std::size_t n) {
     raw<std::uint64_t>(n);
-    bytes.append(reinterpret_cast<const char*>(p), n * sizeof(double));
+    put(p, n * sizeof(double));
   }
   void coords(const Coords& c) { doubles(c.data(), c.size()); }
   void carried(const Carried& c) {
@@ -41,6 +48,38 @@ class Writer {
       doubles(values.data(), values.size());
     }
   }
+  void flush() {
+    send(buffer_.data(), buffer_.size());
+    buffer_.clear();
+  }
+
+ private:
+  static constexpr std::size_t kBuffer = 1 << 16;
+  void put(const void* p, std::size_t n) {
+    if (buffer_.size() + n > kBuffer) flush();
+    if (n >= kBuffer)
+      send(static_cast<const char*>(p), n);
+    else
+      buffer_.append(static_cast<const char*>(p), n);
+  }
+  void send(const char* p, std::size_t n) {
+    while (n > 0) {
+      const ssize_t done = ::write(fd_, p, n);
+      if (done < 0 && errno == EINTR) continue;
+      if (done <= 0) {
+        if (done == 0) errno = ENOSPC;
+        const int saved = errno;
+        ::close(fd_);
+        errno = saved;
+        write_failed(file_, "write");
+      }
+      p += done;
+      n -= static_cast<std::size_t>(done);
+    }
+  }
+  int fd_;
+  std::filesystem::path file_;
+  std::string buffer_;
 };
 
 class Reader {
@@ -96,15 +135,15 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
-[[noreturn]] void write_failed(const std::filesystem::path& file, const std::string& what) {
-  throw std::runtime_error(file.string() + ": cannot write the checkpoint (" + what + "): " + std::strerror(errno));
-}
-
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
-  Writer w;
-  w.bytes.append(kMagic, sizeof kMagic);
+  // A crash at any point leaves either the old checkpoint or the new one, never half of one.
+  const std::filesystem::path fresh = file.string() + ".new";
+  const int fd = ::open(fresh.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) write_failed(fresh, "open");
+  Writer w(fd, fresh);
+  w.raw(kMagic);
   w.raw<std::uint64_t>(cp.identity.size());
   for (const auto& [key, value] : cp.identity) w.text(key), w.text(value);
   w.raw<std::int64_t>(cp.first_step);
@@ -122,25 +161,8 @@ void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
   w.carried(cp.totals);
   w.raw<std::uint64_t>(cp.observers.size());
   for (const Carried& c : cp.observers) w.carried(c);
-  w.bytes.append(kEnd, sizeof kEnd);
-
-  // A crash at any point leaves either the old checkpoint or the new one, never half of one.
-  const std::filesystem::path fresh = file.string() + ".new";
-  const int fd = ::open(fresh.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) write_failed(fresh, "open");
-  std::size_t done = 0;
-  while (done < w.bytes.size()) {
-    const ssize_t n = ::write(fd, w.bytes.data() + done, w.bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      if (n == 0) errno = ENOSPC;
-      const int saved = errno;
-      ::close(fd);
-      errno = saved;
-      write_failed(fresh, "write");
-    }
-    done += static_cast<std::size_t>(n);
-  }
+  w.raw(kEnd);
+  w.flush();
   if (::fsync(fd) != 0) {
     const int saved = errno;
     ::close(fd);

@@ -236,5 +236,34 @@ TEST(Checkpoint, DamagedFilesAreInputErrors) {
   EXPECT_THROW(read_checkpoint(dir / "missing.cpt"), InputError);
 }
 
+
+// Arrays far larger than the writer's buffer, between small fields: every one comes back exactly.
+TEST(Checkpoint, LargeArraysComeBackExactly) {
+  const fs::path dir = fresh_dir("large");
+  Checkpoint cp;
+  cp.identity = {{"atoms", "30000"}};
+  cp.state.q = Coords::Random(3, 30000);
+  cp.state.v = Coords::Random(3, 30000);
+  cp.state.f = Coords::Random(3, 30000);
+  cp.state.energy_terms = {1.0, 2.0};
+  cp.integrator.put("history", std::vector<double>(50000, 0.25));
+  cp.integrator.put("x", 1.5);
+  cp.force_field.put("built_at", Coords::Random(3, 30000));
+  cp.observers.resize(2);
+  cp.observers[1].put("series", std::vector<double>(9000, -3.0));
+  write_checkpoint(dir / "state.cpt", cp);
+  const Checkpoint back = read_checkpoint(dir / "state.cpt");
+  EXPECT_TRUE(back.state.q == cp.state.q);
+  EXPECT_TRUE(back.state.v == cp.state.v);
+  EXPECT_TRUE(back.state.f == cp.state.f);
+  EXPECT_EQ(back.state.energy_terms, cp.state.energy_terms);
+  EXPECT_EQ(back.integrator.values("history"), cp.integrator.values("history"));
+  EXPECT_EQ(back.integrator.number("x"), 1.5);
+  EXPECT_TRUE(back.force_field.coords("built_at") == cp.force_field.coords("built_at"));
+  ASSERT_EQ(back.observers.size(), 2u);
+  EXPECT_TRUE(back.observers[0].empty());
+  EXPECT_EQ(back.observers[1].values("series"), cp.observers[1].values("series"));
+}
+
 }  // namespace
 }  // namespace vimd
