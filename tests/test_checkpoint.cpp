@@ -12,6 +12,8 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "engine/checkpoint.hpp"
 #include "engine/errors.hpp"
@@ -212,15 +214,22 @@ TEST(Checkpoint, IdentityMismatchNamesWhatDiffers) {
   }
 }
 
-TEST(Checkpoint, DamagedFilesAreInputErrors) {
-  const fs::path dir = fresh_dir("damaged");
+// A checkpoint of n atoms at random positions, velocities and forces, at step 7, its integrator
+// carrying the number x = 1.5.
+Checkpoint random_checkpoint(int atoms) {
   Checkpoint cp;
-  cp.identity = {{"atoms", "2"}};
-  cp.state.q = Coords::Random(3, 2);
-  cp.state.v = Coords::Random(3, 2);
-  cp.state.f = Coords::Random(3, 2);
+  cp.identity = {{"atoms", std::to_string(atoms)}};
+  cp.state.q = Coords::Random(3, atoms);
+  cp.state.v = Coords::Random(3, atoms);
+  cp.state.f = Coords::Random(3, atoms);
   cp.state.step = 7;
   cp.integrator.put("x", 1.5);
+  return cp;
+}
+
+TEST(Checkpoint, DamagedFilesAreInputErrors) {
+  const fs::path dir = fresh_dir("damaged");
+  const Checkpoint cp = random_checkpoint(2);
   write_checkpoint(dir / "state.cpt", cp);
   EXPECT_FALSE(fs::exists(dir / "state.cpt.new"));
   const Checkpoint back = read_checkpoint(dir / "state.cpt");
@@ -240,14 +249,9 @@ TEST(Checkpoint, DamagedFilesAreInputErrors) {
 // Arrays far larger than the writer's buffer, between small fields: every one comes back exactly.
 TEST(Checkpoint, LargeArraysComeBackExactly) {
   const fs::path dir = fresh_dir("large");
-  Checkpoint cp;
-  cp.identity = {{"atoms", "30000"}};
-  cp.state.q = Coords::Random(3, 30000);
-  cp.state.v = Coords::Random(3, 30000);
-  cp.state.f = Coords::Random(3, 30000);
+  Checkpoint cp = random_checkpoint(30000);
   cp.state.energy_terms = {1.0, 2.0};
   cp.integrator.put("history", std::vector<double>(50000, 0.25));
-  cp.integrator.put("x", 1.5);
   cp.force_field.put("built_at", Coords::Random(3, 30000));
   cp.observers.resize(2);
   cp.observers[1].put("series", std::vector<double>(9000, -3.0));
