@@ -245,7 +245,6 @@ TEST(Checkpoint, DamagedFilesAreInputErrors) {
   EXPECT_THROW(read_checkpoint(dir / "missing.cpt"), InputError);
 }
 
-
 // Arrays far larger than the writer's buffer, between small fields: every one comes back exactly.
 TEST(Checkpoint, LargeArraysComeBackExactly) {
   const fs::path dir = fresh_dir("large");
