@@ -94,6 +94,10 @@ struct Layout {
   std::vector<Triangle> triangles;
   std::vector<int> triangle_clusters;  // the clusters with a valid triangle, in order
   std::vector<int> other_clusters;     // and all the others, in order
+  // Per SETTLE batch of triangle_clusters: the apex of its first molecule where its molecules are
+  // consecutive atoms, apex, h1, h2 in turn (a water box as written), whose positions then move in
+  // whole vectors; −1 elsewhere.
+  std::vector<int> consecutive_settle_batches;
   // The atoms of each cluster, once each: those of cluster c at [atom_begin[c], atom_begin[c + 1]).
   std::vector<int> atoms, atom_begin;
 
@@ -229,6 +233,8 @@ ClusterOutcome solve_small_positions(const Layout& L, const Layout::Cluster& cl,
 // Rigid water (engine/settle.cpp).
 // The triangle a small cluster forms, if it is one SETTLE can take (invalid otherwise).
 Layout::Triangle rigid_triangle(const Layout& L, const Layout::Cluster& cl);
+// Layout::consecutive_settle_batches of a layout whose triangles are known.
+std::vector<int> consecutive_settle_batches(const Layout& L);
 // SETTLE's position stage for every rigid triangle, in SIMD batches, each cluster's outcome
 // recorded in ws; a triangle SETTLE cannot take goes through solve_small_positions.
 void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const double* w, double tolerance,

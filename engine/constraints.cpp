@@ -163,6 +163,7 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     L.other_clusters.push_back(static_cast<int>(L.clusters.size()));
     L.clusters.push_back(cl);
   }
+  L.consecutive_settle_batches = consecutive_settle_batches(L);
   L.atom_begin.push_back(0);
   for (const auto& cl : L.clusters) {
     for (int p = cl.begin; p < cl.end; ++p)

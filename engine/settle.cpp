@@ -27,19 +27,23 @@ inline void pad_batch(double* in, int n_fields, int count) {
 // satisfies the constraints) and its step velocity; settle_positions copies them out. Where SETTLE
 // does not apply or its result misses the tolerance, q is untouched and Newton solves the cluster.
 
-void settle_prepare(const Layout::Triangle& t, const Coords& q_ref, const Coords& q, const double* w,
-                    double* in, int k) {
+void settle_prepare_constants(const Layout::Triangle& t, const double* w, double* in, int k) {
+  in[kWeightA * kSettleBatch + k] = w[t.apex];
+  in[kWeightB * kSettleBatch + k] = w[t.h1];
+  in[kWeightC * kSettleBatch + k] = w[t.h2];
+  in[kSide * kSettleBatch + k] = t.d_side;
+  in[kBase * kSettleBatch + k] = t.d_base;
+}
+
+void settle_prepare(const Layout::Triangle& t, const Coords& q_ref, const Coords& q, const double* w, double* in,
+                    int k) {
   const int atoms[3] = {t.apex, t.h1, t.h2};
   for (int a = 0; a < 3; ++a)
     for (int d = 0; d < 3; ++d) {
       in[(kRefAx + 3 * a + d) * kSettleBatch + k] = q_ref(d, atoms[a]);
       in[(kQAx + 3 * a + d) * kSettleBatch + k] = q(d, atoms[a]);
     }
-  in[kWeightA * kSettleBatch + k] = w[t.apex];
-  in[kWeightB * kSettleBatch + k] = w[t.h1];
-  in[kWeightC * kSettleBatch + k] = w[t.h2];
-  in[kSide * kSettleBatch + k] = t.d_side;
-  in[kBase * kSettleBatch + k] = t.d_base;
+  settle_prepare_constants(t, w, in, k);
 }
 
 // Lane k of a velocity-projection batch for a rigid triangle: its three bonds, rates and weight
@@ -104,6 +108,8 @@ Layout::Triangle rigid_triangle(const Layout& L, const Layout::Cluster& cl) {
 void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const double* w, double tolerance,
                       int max_iterations, Workspace& ws, const StepVelocity* velocity) {
   const SettleKernel kernel = simd::settle_kernel();
+  const ConsecutiveLoad load = simd::consecutive_load();
+  const ConsecutiveStore store = simd::consecutive_store();
   const SettleParams params{tolerance, {L.box.length[0], L.box.length[1], L.box.length[2]}, velocity != nullptr,
                             velocity ? velocity->h : 0};
   const int n_triangles = static_cast<int>(L.triangle_clusters.size());
@@ -114,14 +120,31 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
   for (int batch = 0; batch < n_batches; ++batch) {
     double in[kSettleInFields * kSettleBatch], result[kSettleOutFields * kSettleBatch];
     const int first = batch * kSettleBatch, count = std::min(n_triangles - first, kSettleBatch);
-    for (int k = 0; k < count; ++k)
-      settle_prepare(L.triangles[L.clusters[L.triangle_clusters[first + k]].slot], q_ref, q, w, in, k);
+    auto triangle = [&](int k) -> const Layout::Triangle& {
+      return L.triangles[L.clusters[L.triangle_clusters[first + k]].slot];
+    };
+    const int first_atom = L.consecutive_settle_batches[batch];
+    if (first_atom >= 0) {
+      load(q_ref.data() + 3 * first_atom, count, in, kRefAx);
+      load(q.data() + 3 * first_atom, count, in, kQAx);
+      for (int k = 0; k < count; ++k) settle_prepare_constants(triangle(k), w, in, k);
+    } else {
+      for (int k = 0; k < count; ++k) settle_prepare(triangle(k), q_ref, q, w, in, k);
+    }
     pad_batch(in, kSettleInFields, count);
     kernel(count, params, in, result);
+    const double* status_of = result + kStatus * kSettleBatch;
+    const bool whole = first_atom >= 0 && std::none_of(status_of, status_of + count, [](double s) {
+                         return static_cast<SettleStatus>(s) == SettleStatus::newton;
+                       });
+    if (whole) {  // none left to Newton: positions (q itself where it stays) and velocities in vectors
+      store(result, kNewAx, count, q.data() + 3 * first_atom);
+      if (velocity) store(result, kVelAx, count, velocity->v.data() + 3 * first_atom);
+    }
     for (int k = 0; k < count; ++k) {
       const int c = L.triangle_clusters[first + k];
       const Layout::Cluster& cl = L.clusters[c];
-      const auto status = static_cast<SettleStatus>(result[kStatus * kSettleBatch + k]);
+      const auto status = static_cast<SettleStatus>(status_of[k]);
       if (status == SettleStatus::newton) {
         ws.record(c, solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin));
         if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
@@ -135,6 +158,7 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
       out.worst = cl.begin + side_position[static_cast<int>(result[kWorstSide * kSettleBatch + k])];
       out.deviation = result[kDeviation * kSettleBatch + k];
       ws.record(c, out);
+      if (whole) continue;
       // Where q already satisfies the constraints it stays as it is; the velocities follow the same
       // formula as Layout::set_step_velocity, computed in the kernel's vectors.
       const int atoms[3] = {t.apex, t.h1, t.h2};
@@ -145,6 +169,21 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
         }
     }
   }
+}
+
+std::vector<int> consecutive_settle_batches(const Layout& L) {
+  const int n_triangles = static_cast<int>(L.triangle_clusters.size());
+  std::vector<int> first_atoms;
+  for (int first = 0; first < n_triangles; first += kSettleBatch) {
+    const int apex = L.triangles[L.clusters[L.triangle_clusters[first]].slot].apex;
+    bool consecutive = true;
+    for (int k = 0; consecutive && k < std::min(kSettleBatch, n_triangles - first); ++k) {
+      const Layout::Triangle& t = L.triangles[L.clusters[L.triangle_clusters[first + k]].slot];
+      consecutive = t.apex == apex + 3 * k && t.h1 == t.apex + 1 && t.h2 == t.apex + 2;
+    }
+    first_atoms.push_back(consecutive ? apex : -1);
+  }
+  return first_atoms;
 }
 
 void project_triangle_velocities(const Layout& L, const Coords& q, Coords& v, const double* w, Workspace& ws) {

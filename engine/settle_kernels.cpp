@@ -6,6 +6,8 @@
 #define HWY_TARGET_INCLUDE "engine/settle_kernels.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 
+#include <algorithm>
+
 #include "engine/settle_kernels.hpp"
 #include "engine/simd-inl.h"
 #include "hwy/highway.h"
@@ -164,9 +166,62 @@ void project_triangle_batch(int count, const double* in, double* out) {
   }
 }
 
+// Positions of consecutive molecules: the coordinates of 3·lanes atoms de-interleaved by xyz, then
+// each coordinate's values de-interleaved by apex, h1, h2 (and the reverse to store).
+void load_consecutive(const double* coords, int count, double* in, int first) {
+  const SimdTag tag;
+  const int lanes = V::lanes();
+  constexpr int kMaxLanes = HWY_MAX_BYTES / sizeof(double);
+  HWY_ALIGN double by_coordinate[3][3 * kMaxLanes];
+  HWY_ALIGN double tail[9 * kMaxLanes] = {};
+  for (int k = 0; k < count; k += lanes) {
+    const double* from = coords + 9 * k;
+    if (count - k < lanes) {
+      std::copy(from, from + 9 * (count - k), tail);
+      from = tail;
+    }
+    for (int part = 0; part < 3; ++part) {
+      hn::Vec<SimdTag> x, y, z;
+      hn::LoadInterleaved3(tag, from + 3 * lanes * part, x, y, z);
+      hn::Store(x, tag, by_coordinate[0] + lanes * part);
+      hn::Store(y, tag, by_coordinate[1] + lanes * part);
+      hn::Store(z, tag, by_coordinate[2] + lanes * part);
+    }
+    for (int d = 0; d < 3; ++d) {
+      hn::Vec<SimdTag> apex, h1, h2;
+      hn::LoadInterleaved3(tag, by_coordinate[d], apex, h1, h2);
+      hn::StoreU(apex, tag, in + (first + d) * kSettleBatch + k);
+      hn::StoreU(h1, tag, in + (first + 3 + d) * kSettleBatch + k);
+      hn::StoreU(h2, tag, in + (first + 6 + d) * kSettleBatch + k);
+    }
+  }
+}
+
+void store_consecutive(const double* out, int first, int count, double* coords) {
+  const SimdTag tag;
+  const int lanes = V::lanes();
+  constexpr int kMaxLanes = HWY_MAX_BYTES / sizeof(double);
+  HWY_ALIGN double by_coordinate[3][3 * kMaxLanes];
+  HWY_ALIGN double tail[9 * kMaxLanes];
+  for (int k = 0; k < count; k += lanes) {
+    for (int d = 0; d < 3; ++d)
+      hn::StoreInterleaved3(hn::LoadU(tag, out + (first + d) * kSettleBatch + k),
+                            hn::LoadU(tag, out + (first + 3 + d) * kSettleBatch + k),
+                            hn::LoadU(tag, out + (first + 6 + d) * kSettleBatch + k), tag, by_coordinate[d]);
+    const bool partial = count - k < lanes;
+    double* to = partial ? tail : coords + 9 * k;
+    for (int part = 0; part < 3; ++part)
+      hn::StoreInterleaved3(hn::Load(tag, by_coordinate[0] + lanes * part), hn::Load(tag, by_coordinate[1] + lanes * part),
+                            hn::Load(tag, by_coordinate[2] + lanes * part), tag, to + 3 * lanes * part);
+    if (partial) std::copy(tail, tail + 9 * (count - k), coords + 9 * k);
+  }
+}
+
 }  // namespace
 
 SettleKernel SettleKernelFor() { return settle_batch; }
+ConsecutiveLoad ConsecutiveLoadFor() { return load_consecutive; }
+ConsecutiveStore ConsecutiveStoreFor() { return store_consecutive; }
 ProjectionKernel ProjectionKernelFor() { return project_triangle_batch; }
 
 }  // namespace HWY_NAMESPACE
@@ -177,9 +232,13 @@ HWY_AFTER_NAMESPACE();
 namespace vimd {
 HWY_EXPORT(SettleKernelFor);
 HWY_EXPORT(ProjectionKernelFor);
+HWY_EXPORT(ConsecutiveLoadFor);
+HWY_EXPORT(ConsecutiveStoreFor);
 namespace simd {
 SettleKernel settle_kernel() { return HWY_DYNAMIC_DISPATCH(SettleKernelFor)(); }
 ProjectionKernel triangle_projection_kernel() { return HWY_DYNAMIC_DISPATCH(ProjectionKernelFor)(); }
+ConsecutiveLoad consecutive_load() { return HWY_DYNAMIC_DISPATCH(ConsecutiveLoadFor)(); }
+ConsecutiveStore consecutive_store() { return HWY_DYNAMIC_DISPATCH(ConsecutiveStoreFor)(); }
 }  // namespace simd
 }  // namespace vimd
 #endif  // HWY_ONCE

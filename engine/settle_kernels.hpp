@@ -38,8 +38,17 @@ enum ProjectionIn { kR0x, kR0y, kR0z, kR1x, kR1y, kR1z, kR2x, kR2y, kR2z, kRate0
                     kC01, kC02, kC12, kProjectionInFields };
 using ProjectionKernel = void (*)(int count, const double* in, double* out);
 
+// A batch's positions between the stored coordinates and the fields above, whole vectors at a time,
+// for a batch whose molecules are consecutive atoms (apex, h1, h2, apex, ...: a water box as
+// written): fields first..first+8 of lanes [0, count) from or to the 9·count doubles at `coords`.
+// A load may fill lanes past count, up to the next multiple of the vector width.
+using ConsecutiveLoad = void (*)(const double* coords, int count, double* in, int first);
+using ConsecutiveStore = void (*)(const double* out, int first, int count, double* coords);
+
 namespace simd {
 SettleKernel settle_kernel();
+ConsecutiveLoad consecutive_load();
+ConsecutiveStore consecutive_store();
 ProjectionKernel triangle_projection_kernel();
 }  // namespace simd
 
