@@ -67,16 +67,15 @@ inline void lj_hessian(const LjConstants& k, T c6, T c12, T rinv2, T r, T& a, T&
   }
 }
 
-// The i atoms' rows of the type tables. Rows whose atom has no LJ with any type (water's hydrogens:
-// 2 of 3 rows) skip the LJ terms: they would add exact zeros.
+// The i atoms' rows of the parameter table (PairViewOf::lj). Rows whose atom has no LJ with any
+// type (water's hydrogens: 2 of 3 rows) skip the LJ terms: they would add exact zeros.
 template <class Real>
 struct LjHalf {
-  const Real *c6[NeighborList::kHalfSize], *c12[NeighborList::kHalfSize];
+  const Real* row[NeighborList::kHalfSize];
   bool lj[NeighborList::kHalfSize];
   HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
     for (int ii = 0; ii < NeighborList::kHalfSize; ++ii) {
-      c6[ii] = d.lj_c6 + d.type[ib + ii] * d.n_slots;
-      c12[ii] = d.lj_c12 + d.type[ib + ii] * d.n_slots;
+      row[ii] = d.lj + lj_index(d.type[ib + ii], 0, d.n_slots);
       lj[ii] = d.type_has_lj[d.type[ib + ii]] != 0;
     }
   }
@@ -84,6 +83,14 @@ struct LjHalf {
     bool any = false;
     for (int r = 0; r < PairLayout<Real>::kRows; ++r) any |= lj[ii + r];
     return any;
+  }
+  // c6 and c12 of the rows from ii with the j atoms from slot jb (jb − jb mod kClusterSize: the
+  // j-cluster's first slot, after which its c6 values come).
+  HWY_INLINE void parameters(int ii, int jb, SimdVec<Real>& c6, SimdVec<Real>& c12) const {
+    constexpr int kC = NeighborList::kClusterSize;
+    const int at = jb + (jb & ~(kC - 1));
+    c6 = load_rows(row, ii, at);
+    c12 = load_rows(row, ii, at + kC);
   }
 };
 
@@ -96,14 +103,16 @@ struct PairForm<LjConstants, M> {
   template <class Real>
   static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                       const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    lj_energy_force<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, j.slot), load_rows(hi.c12, ii, j.slot),
-                       p.rinv2, p.r2 * p.rinv, v, g);
+    SimdVec<Real> c6, c12;
+    hi.parameters(ii, j.slot, c6, c12);
+    lj_energy_force<M>(std::get<LjConstants>(d.forms), c6, c12, p.rinv2, p.r2 * p.rinv, v, g);
   }
   template <class Real>
   static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    lj_hessian<M>(std::get<LjConstants>(d.forms), load_rows(hi.c6, ii, j.slot), load_rows(hi.c12, ii, j.slot), p.rinv2,
-                  p.r2 * p.rinv, a, b);
+    SimdVec<Real> c6, c12;
+    hi.parameters(ii, j.slot, c6, c12);
+    lj_hessian<M>(std::get<LjConstants>(d.forms), c6, c12, p.rinv2, p.r2 * p.rinv, a, b);
   }
 };
 

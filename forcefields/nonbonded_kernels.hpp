@@ -30,19 +30,23 @@ struct PairPositionsOf {
 };
 
 // Everything the pair loops read: the atoms' parameters as plain pointers, and the constants of
-// the pair forms. Positions, charges and LJ parameters are in slot order; lj_c6[t * n_slots + s]
-// is c6 between type t and the atom in slot s (likewise c12), so a j-cluster's parameters for an
-// i atom are contiguous vector loads.
+// the pair forms. Positions and charges are in slot order; the LJ parameters of type t with the
+// atoms of j-cluster c are lj[lj_index(t, c)]: its kClusterSize c6 values, then as many c12, in slot
+// order, so that an i atom's parameters with a j-cluster are one cache line.
 template <class Real>
 struct PairViewOf : PairPositionsOf<Real> {
   const Real* charge;
   const int* type;
-  const Real *lj_c6, *lj_c12;
+  const Real* lj;
   const unsigned char* type_has_lj;  // per type: 1 if its c6 or c12 with some type is not zero
   std::size_t n_slots;
   PairFormConstants forms;
 };
 using PairView = PairViewOf<double>;
+// Where PairViewOf::lj holds the parameters of type t with j-cluster c.
+inline std::size_t lj_index(int type, int j_cluster, std::size_t n_slots) {
+  return 2 * (static_cast<std::size_t>(type) * n_slots + static_cast<std::size_t>(j_cluster) * NeighborList::kClusterSize);
+}
 
 // Forces of the i-halves [h0, h1) into the SoA buffer (fx, fy, fz); the energies of half h into
 // half_lj[h] (PairEnergy::vdw), half_coulomb[h] (PairEnergy::coulomb), so that their total can be summed in an order that does not depend

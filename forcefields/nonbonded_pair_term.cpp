@@ -187,8 +187,7 @@ PairViewOf<Real> NonbondedPairTerm::pair_view(Workspace& w, const Visit& visit) 
            list.shift_vectors().data(), cutoff2},
           a.charge.data(),
           w.slot_type.data(),
-          a.c6.data(),
-          a.c12.data(),
+          a.lj.data(),
           type_has_lj_.data(),
           static_cast<std::size_t>(list.n_slots()),
           forms_};
@@ -235,13 +234,14 @@ void NonbondedPairTerm::refresh_layout(Workspace& w) const {
     w.slot_type[s] = type_[a];
   }
   for (auto* v : {&slots.x, &slots.y, &slots.z, &slots.ux, &slots.uy, &slots.uz}) v->resize(n);
-  slots.c6.assign(static_cast<std::size_t>(n_types_) * n, 0.0);
-  slots.c12.assign(slots.c6.size(), 0.0);
+  constexpr int kC = NeighborList::kClusterSize;
+  slots.lj.assign(2 * static_cast<std::size_t>(n_types_) * n, 0.0);
   for (int t = 0; t < n_types_; ++t)
     for (int s = 0; s < n; ++s) {
       if (slot_atom[s] < 0) continue;
-      slots.c6[static_cast<std::size_t>(t) * n + s] = c6_[t * n_types_ + w.slot_type[s]];
-      slots.c12[static_cast<std::size_t>(t) * n + s] = c12_[t * n_types_ + w.slot_type[s]];
+      double* at = slots.lj.data() + lj_index(t, s / kC, n) + s % kC;
+      at[0] = c6_[t * n_types_ + w.slot_type[s]];
+      at[kC] = c12_[t * n_types_ + w.slot_type[s]];
     }
   if (w.single_kept) refresh_single_precision_layout(w);
   w.layout_build = list.builds();
@@ -250,8 +250,7 @@ void NonbondedPairTerm::refresh_layout(Workspace& w) const {
 void NonbondedPairTerm::refresh_single_precision_layout(Workspace& w) const {
   SlotArrays<float>& single = w.single_slots;
   single.charge.assign(w.slots.charge.begin(), w.slots.charge.end());
-  single.c6.assign(w.slots.c6.begin(), w.slots.c6.end());
-  single.c12.assign(w.slots.c12.begin(), w.slots.c12.end());
+  single.lj.assign(w.slots.lj.begin(), w.slots.lj.end());
   for (auto* v : {&single.x, &single.y, &single.z, &single.ux, &single.uy, &single.uz})
     v->resize(w.lists.searched().n_slots());
 }

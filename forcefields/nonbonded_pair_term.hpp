@@ -80,7 +80,7 @@ class NonbondedPairTerm : public ForceTerm {
   template <class Real>
   struct SlotArrays {
     std::vector<Real> charge;
-    std::vector<Real> c6, c12;  // [type_i * n_slots + slot_j]
+    std::vector<Real> lj;  // PairViewOf::lj
     std::vector<Real> x, y, z;  // positions, packed per evaluation
     std::vector<Real> ux, uy, uz;  // the direction of a Hessian–vector product, packed per product
     std::vector<std::vector<Real>> thread_buffers;  // per thread: x, y, z blocks of n_slots
