@@ -84,11 +84,10 @@ struct LjHalf {
     for (int r = 0; r < PairLayout<Real>::kRows; ++r) any |= lj[ii + r];
     return any;
   }
-  // c6 and c12 of the rows from ii with the j atoms from slot jb (jb − jb mod kClusterSize: the
-  // j-cluster's first slot, after which its c6 values come).
+  // c6 and c12 of the rows from ii with the j atoms from slot jb on.
   HWY_INLINE void parameters(int ii, int jb, SimdVec<Real>& c6, SimdVec<Real>& c12) const {
     constexpr int kC = NeighborList::kClusterSize;
-    const int at = jb + (jb & ~(kC - 1));
+    const int at = static_cast<int>(lj_index(0, jb / kC, 0)) + jb % kC;
     c6 = load_rows(row, ii, at);
     c12 = load_rows(row, ii, at + kC);
   }
