@@ -146,112 +146,112 @@ class PrecisionMesh final : public EwaldMesh {
   }
 
   double add_forces(const Coords& q, Coords& f, bool energy) override {
-    splines(q, false);
-    spread(grid_[0], nullptr);
-    const double e = convolve(grid_[0], energy);
+    in_parallel([&](int t, int nt) {
+      const Share atoms = share_of(n_atoms_, t, nt);
+      kernels_.splines(atoms_, q.data(), false, atoms.begin, atoms.end);
+      spread(grid_[0], nullptr, t, nt);
+      partial_[t] = convolve(grid_[0], energy, t, nt);
+#pragma omp barrier
+      kernels_.gather_forces(atoms_, grid_[0].real(), atoms.begin, atoms.end, f.data());
+    });
     phi_at_ = q;
     phi_ready_ = true;
-    over_atoms([&](int begin, int end) { kernels_.gather_forces(atoms_, grid_[0].real(), begin, end, f.data()); });
-    return e;
+    double sum = 0;
+    for (double e : partial_) sum += e;  // in thread order: reproducible
+    return 0.5 * sum;
   }
 
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out) override {
     // A Hessian–vector product at the positions of the last force pass (the integrators' usual
     // pattern) takes its potential grid: the same arithmetic, so the same result.
     const bool reuse = phi_ready_ && phi_at_.cols() == q.cols() && phi_at_ == q;
-    splines(q, true);
-    if (!reuse) {
-      spread(grid_[0], nullptr);
-      convolve(grid_[0], false);
-      phi_at_ = q;
-      phi_ready_ = true;
-    }
-    spread(grid_[1], &u);
-    convolve(grid_[1], false);
-    over_atoms([&](int begin, int end) {
-      kernels_.gather_hessian(atoms_, grid_[0].real(), grid_[1].real(), u.data(), begin, end, out.data());
+    in_parallel([&](int t, int nt) {
+      const Share atoms = share_of(n_atoms_, t, nt);
+      kernels_.splines(atoms_, q.data(), true, atoms.begin, atoms.end);
+      if (!reuse) {
+        spread(grid_[0], nullptr, t, nt);
+        convolve(grid_[0], false, t, nt);
+      }
+      spread(grid_[1], &u, t, nt);
+      convolve(grid_[1], false, t, nt);
+#pragma omp barrier
+      kernels_.gather_hessian(atoms_, grid_[0].real(), grid_[1].real(), u.data(), atoms.begin, atoms.end, out.data());
     });
+    phi_at_ = q;
+    phi_ready_ = true;
   }
 
  private:
-  // f(begin, end) on one contiguous chunk of the atoms per thread.
+  // f(t, nt) on every thread of one parallel region (one thread below the work threshold); the
+  // steps inside meet at barriers.
   template <class F>
-  void over_atoms(F&& f) {
-#pragma omp parallel if (threaded_)
-    {
-      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-      f(int(long(n_atoms_) * t / nt), int(long(n_atoms_) * (t + 1) / nt));
-    }
-  }
-
-  void splines(const Coords& q, bool second) {
-    over_atoms([&](int begin, int end) { kernels_.splines(atoms_, q.data(), second, begin, end); });
-  }
-
-  // The charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on the grid.
-  void spread(FftGrid<Real>& grid, const Coords* u) {
-    const int threads = omp_get_max_threads();
+  void in_parallel(F&& f) {
+    const int threads = threaded_ ? omp_get_max_threads() : 1;
     const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
-    if (static_cast<int>(spread_.size()) != threads) spread_.assign(threads, std::vector<Real>(size));
-    const int p = s_->order, nz = s_->n[2], row = s_->row;
-#pragma omp parallel num_threads(threads) if (threaded_)
-    {
-      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-      Real* g = spread_[t].data();
-      std::fill(g, g + size, Real(0));
-      kernels_.spread(atoms_, u ? u->data() : nullptr, int(long(n_atoms_) * t / nt), int(long(n_atoms_) * (t + 1) / nt), g);
+    if (static_cast<int>(spread_.size()) < threads) spread_.resize(threads, std::vector<Real>(size));
+    partial_.assign(threads, 0.0);
+    for (auto& grid : grid_) grid.prepare(threads);
+#pragma omp parallel num_threads(threads)
+    f(omp_get_thread_num(), omp_get_num_threads());
+  }
+
+  // Thread t's atoms' charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on
+  // its own grid; after a barrier, the thread's x planes of the threads' grids summed in thread
+  // order, each row's wrap-around folded back, and transformed in y and z.
+  void spread(FftGrid<Real>& grid, const Coords* u, int t, int nt) {
+    const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
+    const int p = s_->order, ny = s_->n[1], nz = s_->n[2], row = s_->row;
+    Real* g = spread_[t].data();
+    std::fill(g, g + size, Real(0));
+    const Share atoms = share_of(n_atoms_, t, nt);
+    kernels_.spread(atoms_, u ? u->data() : nullptr, atoms.begin, atoms.end, g);
 #pragma omp barrier
-      // Fold each row's wrap-around back and sum the threads' grids in thread order.
-      Real* out = grid.real();
-      const int rows = s_->n[0] * s_->n[1];
-#pragma omp for schedule(static)
-      for (int r = 0; r < rows; ++r) {
-        Real* o = out + std::size_t(r) * row;
-        for (int z = 0; z < nz; ++z) o[z] = 0;
-        for (int k = 0; k < nt; ++k) {
-          const Real* in = spread_[k].data() + std::size_t(r) * row;
-          for (int z = 0; z < nz; ++z) o[z] += in[z];
-          for (int z = 0; z < p - 1; ++z) o[z] += in[nz + z];
-        }
+    Real* out = grid.real();
+    const Share planes = grid.planes(t, nt);
+    for (int r = planes.begin * ny; r < planes.end * ny; ++r) {
+      Real* o = out + std::size_t(r) * row;
+      for (int z = 0; z < nz; ++z) o[z] = 0;
+      for (int k = 0; k < nt; ++k) {
+        const Real* in = spread_[k].data() + std::size_t(r) * row;
+        for (int z = 0; z < nz; ++z) o[z] += in[z];
+        for (int z = 0; z < p - 1; ++z) o[z] += in[nz + z];
       }
     }
+    grid.forward_planes(t, nt);
   }
 
-  // Transforms the spread grid, multiplies by the influence function (summing the energy
-  // ½ Σ_m G(m)|S(m)|² when asked) and transforms back: the grid then holds G ⊛ grid, with each
-  // row's first p − 1 points repeated after its end for the gathers.
-  double convolve(FftGrid<Real>& grid, bool energy) {
-    const int threads = omp_get_max_threads(), fft_threads = threaded_ ? threads : 1;
-    grid.forward(fft_threads);
-    const int nzc = grid.complex_row(), rows = s_->n[0] * s_->n[1];
-    partial_.assign(threads, 0.0);
+  // After spread: the rest of the transform, the product with the influence function on the
+  // thread's columns (with their part of the energy Σ_m G(m)|S(m)|² when asked, returned) and the
+  // transform back. The grid then holds G ⊛ grid on the thread's planes, with each row's first
+  // p − 1 points repeated after its end for the gathers.
+  double convolve(FftGrid<Real>& grid, bool energy, int t, int nt) {
+#pragma omp barrier
+    grid.forward_columns(t, nt);
+    const int nx = s_->n[0], ny = s_->n[1], nzc = grid.complex_row();
+    const Share rows = grid.rows(t, nt);
     auto* c = grid.complex();
-#pragma omp parallel num_threads(threads) if (threaded_)
-    {
-      double e = 0;
-#pragma omp for schedule(static)
-      for (int r = 0; r < rows; ++r) {
-        const std::size_t at = std::size_t(r) * nzc;
+    double e = 0;
+    for (int x = 0; x < nx; ++x)
+      for (int y = rows.begin; y < rows.end; ++y) {
+        const std::size_t at = (std::size_t(x) * ny + y) * nzc;
         for (int z = 0; z < nzc; ++z) {
           const Real g = influence_[at + z];
           if (energy) e += double(weight_[z] * g * std::norm(c[at + z]));
           c[at + z] *= g;
         }
       }
-      partial_[omp_get_thread_num()] = e;
-    }
-    grid.backward(fft_threads);
+    grid.backward_columns(t, nt);
+#pragma omp barrier
+    grid.backward_planes(t, nt);
     Real* real = grid.real();
     const int nz = s_->n[2], row = s_->row, p = s_->order;
-#pragma omp parallel for schedule(static) if (threaded_)
-    for (int r = 0; r < rows; ++r)
+    const Share planes = grid.planes(t, nt);
+    for (int r = planes.begin * ny; r < planes.end * ny; ++r)
       for (int z = 0; z < p - 1; ++z) real[std::size_t(r) * row + nz + z] = real[std::size_t(r) * row + z];
-    double sum = 0;
-    for (double e : partial_) sum += e;
-    return 0.5 * sum;
+    return e;
   }
 
-  // Threads (ours and FFTW's) only where there is work enough to pay for starting them.
+  // Threads only where there is work enough to pay for starting them.
   static constexpr double kParallelWork = 65536;
 
   std::shared_ptr<const EwaldMeshSetup> s_;

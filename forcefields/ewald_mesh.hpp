@@ -9,10 +9,10 @@
 // periodic in x, y and z; positions may be unwrapped. docs/pme.md has the formulas in full.
 //
 // The per-atom loops are SIMD kernels per target and order (ewald_mesh_kernels.hpp).
-// Threads: spreading over atom chunks into per-thread grids summed in thread order, FFTW's
-// OpenMP-threaded real-to-complex transforms (FFTW_ESTIMATE plans: reproducible run to run),
-// gathering over atoms. Results are bitwise reproducible for a given thread count and differ
-// between thread counts by round-off only.
+// Threads: one parallel region per pass — spreading over atom chunks into per-thread grids summed
+// in thread order, transforms split into x planes and x columns per thread (fft_grid.hpp;
+// FFTW_ESTIMATE plans: reproducible run to run), gathering over atoms. Results are bitwise
+// reproducible for a given thread count and differ between thread counts by round-off only.
 // Precision: double, or float grids and transforms (as GROMACS's mixed build) with mixed_precision
 // or TermEvaluation::single_precision; energies summed in double either way.
 #include <array>

@@ -9,6 +9,7 @@ namespace vimd {
 
 namespace {
 
+// FFTW's planner is global; the plan lists of the grids are guarded by the same lock.
 std::mutex& planner_lock() {
   static std::mutex lock;
   return lock;
@@ -42,37 +43,43 @@ FftGrid<Real>::FftGrid(const std::array<int, 3>& n, int row)
 template <class Real>
 FftGrid<Real>::~FftGrid() {
   std::lock_guard<std::mutex> guard(planner_lock());  // destroying a plan touches the planner too
-  for (const Plans& p : plans_) {
-    Api::destroy(p.forward);
-    Api::destroy(p.backward);
-  }
+  for (const auto& count : plans_)
+    for (const ThreadPlans& p : count->of_thread)
+      for (auto plan : {p.forward_planes, p.forward_columns, p.backward_columns, p.backward_planes})
+        if (plan != nullptr) Api::destroy(plan);
 }
 
 template <class Real>
-const typename FftGrid<Real>::Plans& FftGrid<Real>::plans(int threads) {
-  for (const Plans& p : plans_)
-    if (p.threads == threads) return p;
+const typename FftGrid<Real>::ThreadPlans& FftGrid<Real>::plans(int t, int nt) {
   std::lock_guard<std::mutex> guard(planner_lock());
-  static std::once_flag threads_ready;
-  std::call_once(threads_ready, [] { Api::init_threads(); });
-  Api::plan_with_threads(threads);
-  const int real_embed[3] = {n_[0], n_[1], row_}, complex_embed[3] = {n_[0], n_[1], complex_row()};
-  // ESTIMATE plans leave the arrays alone while planning.
-  Plans p{threads, Api::plan_r2c(n_.data(), real(), real_embed, complex_.data(), complex_embed),
-          Api::plan_c2r(n_.data(), complex_.data(), complex_embed, real(), real_embed)};
-  if (p.forward == nullptr || p.backward == nullptr) throw std::runtime_error("FFTW could not plan the Ewald mesh's transforms");
-  plans_.push_back(p);
-  return plans_.back();
-}
-
-template <class Real>
-void FftGrid<Real>::forward(int threads) {
-  Api::r2c(plans(threads).forward, real(), complex_.data());
-}
-
-template <class Real>
-void FftGrid<Real>::backward(int threads) {
-  Api::c2r(plans(threads).backward, complex_.data(), real());
+  for (const auto& count : plans_)
+    if (count->threads == nt) return count->of_thread[t];
+  auto count = std::make_unique<ThreadCountPlans>(ThreadCountPlans{nt, std::vector<ThreadPlans>(nt)});
+  const int ny = n_[1], nzc = complex_row();
+  const int plane_n[2] = {ny, n_[2]}, real_embed[2] = {ny, row_}, complex_embed[2] = {ny, nzc};
+  const int real_plane = ny * row_, complex_plane = ny * nzc;
+  bool planned = true;
+  for (int k = 0; k < nt; ++k) {
+    ThreadPlans& p = count->of_thread[k];
+    // ESTIMATE plans leave the arrays alone while planning.
+    if (const Share x = planes(k, nt); x.end > x.begin) {
+      Real* in = real() + std::size_t(x.begin) * real_plane;
+      auto* out = complex_.data() + std::size_t(x.begin) * complex_plane;
+      p.forward_planes = Api::plan_r2c(2, plane_n, x.end - x.begin, in, real_embed, real_plane, out, complex_embed, complex_plane);
+      p.backward_planes = Api::plan_c2r(2, plane_n, x.end - x.begin, out, complex_embed, complex_plane, in, real_embed, real_plane);
+      planned = planned && p.forward_planes != nullptr && p.backward_planes != nullptr;
+    }
+    if (const Share y = rows(k, nt); y.end > y.begin) {
+      auto* first = complex_.data() + std::size_t(y.begin) * nzc;
+      const int columns = (y.end - y.begin) * nzc;
+      p.forward_columns = Api::plan_c2c(n_[0], columns, first, complex_plane, FFTW_FORWARD);
+      p.backward_columns = Api::plan_c2c(n_[0], columns, first, complex_plane, FFTW_BACKWARD);
+      planned = planned && p.forward_columns != nullptr && p.backward_columns != nullptr;
+    }
+  }
+  plans_.push_back(std::move(count));
+  if (!planned) throw std::runtime_error("FFTW could not plan the Ewald mesh's transforms");
+  return plans_.back()->of_thread[t];
 }
 
 template class FftGrid<double>;

@@ -1,9 +1,14 @@
 #pragma once
-// FFTW 3's three-dimensional real-to-complex and complex-to-real transforms in double or float,
-// for the Ewald mesh. The real grid is nx × ny × nz stored with rows of `row` ≥ nz reals (room for
-// the B-splines' wrap-around), the complex grid nx × ny × (nz/2 + 1). Plans are FFTW_ESTIMATE (no
-// timing: the same plan, hence the same results, every run), made once per thread count, and made
-// under one lock: FFTW's planner is not thread-safe.
+// FFTW 3's real-to-complex and complex-to-real transforms of a three-dimensional grid in double or
+// float, for the Ewald mesh, split among the threads of a parallel region as GROMACS's fft5d splits
+// them: thread t of nt transforms its share of x planes in y and z (two-dimensional transforms),
+// and, after a barrier, its share of the columns along x (the complex points with y in its share
+// of rows). One parallel region then holds a whole convolution with three barriers, and every plan
+// runs on the thread that calls it: FFTW's own threads would start a parallel region per stage.
+// The real grid is nx × ny × nz stored with rows of `row` ≥ nz reals (room for the B-splines'
+// wrap-around), the complex grid nx × ny × (nz/2 + 1). Plans are FFTW_ESTIMATE (no timing: the
+// same plans, hence the same results, every run), made per thread count under one lock: FFTW's
+// planner is not thread-safe.
 #include <fftw3.h>
 
 #include <array>
@@ -22,16 +27,18 @@ struct FftwApi<double> {
   using Plan = fftw_plan;
   using Complex = fftw_complex;
   static void destroy(Plan p) { fftw_destroy_plan(p); }
-  static void init_threads() { fftw_init_threads(); }
-  static void plan_with_threads(int n) { fftw_plan_with_nthreads(n); }
-  static Plan plan_r2c(const int* n, double* in, const int* in_embed, Complex* out, const int* out_embed) {
-    return fftw_plan_many_dft_r2c(3, n, 1, in, in_embed, 1, 0, out, out_embed, 1, 0, FFTW_ESTIMATE);
+  static void execute(Plan p) { fftw_execute(p); }
+  static Plan plan_r2c(int rank, const int* n, int howmany, double* in, const int* in_embed, int in_dist, Complex* out,
+                       const int* out_embed, int out_dist) {
+    return fftw_plan_many_dft_r2c(rank, n, howmany, in, in_embed, 1, in_dist, out, out_embed, 1, out_dist, FFTW_ESTIMATE);
   }
-  static Plan plan_c2r(const int* n, Complex* in, const int* in_embed, double* out, const int* out_embed) {
-    return fftw_plan_many_dft_c2r(3, n, 1, in, in_embed, 1, 0, out, out_embed, 1, 0, FFTW_ESTIMATE);
+  static Plan plan_c2r(int rank, const int* n, int howmany, Complex* in, const int* in_embed, int in_dist, double* out,
+                       const int* out_embed, int out_dist) {
+    return fftw_plan_many_dft_c2r(rank, n, howmany, in, in_embed, 1, in_dist, out, out_embed, 1, out_dist, FFTW_ESTIMATE);
   }
-  static void r2c(Plan p, double* in, Complex* out) { fftw_execute_dft_r2c(p, in, out); }
-  static void c2r(Plan p, Complex* in, double* out) { fftw_execute_dft_c2r(p, in, out); }
+  static Plan plan_c2c(int n, int howmany, Complex* data, int stride, int sign) {
+    return fftw_plan_many_dft(1, &n, howmany, data, nullptr, stride, 1, data, nullptr, stride, 1, sign, FFTW_ESTIMATE);
+  }
 };
 
 template <>
@@ -39,20 +46,23 @@ struct FftwApi<float> {
   using Plan = fftwf_plan;
   using Complex = fftwf_complex;
   static void destroy(Plan p) { fftwf_destroy_plan(p); }
-  static void init_threads() { fftwf_init_threads(); }
-  static void plan_with_threads(int n) { fftwf_plan_with_nthreads(n); }
-  static Plan plan_r2c(const int* n, float* in, const int* in_embed, Complex* out, const int* out_embed) {
-    return fftwf_plan_many_dft_r2c(3, n, 1, in, in_embed, 1, 0, out, out_embed, 1, 0, FFTW_ESTIMATE);
+  static void execute(Plan p) { fftwf_execute(p); }
+  static Plan plan_r2c(int rank, const int* n, int howmany, float* in, const int* in_embed, int in_dist, Complex* out,
+                       const int* out_embed, int out_dist) {
+    return fftwf_plan_many_dft_r2c(rank, n, howmany, in, in_embed, 1, in_dist, out, out_embed, 1, out_dist,
+                                   FFTW_ESTIMATE);
   }
-  static Plan plan_c2r(const int* n, Complex* in, const int* in_embed, float* out, const int* out_embed) {
-    return fftwf_plan_many_dft_c2r(3, n, 1, in, in_embed, 1, 0, out, out_embed, 1, 0, FFTW_ESTIMATE);
+  static Plan plan_c2r(int rank, const int* n, int howmany, Complex* in, const int* in_embed, int in_dist, float* out,
+                       const int* out_embed, int out_dist) {
+    return fftwf_plan_many_dft_c2r(rank, n, howmany, in, in_embed, 1, in_dist, out, out_embed, 1, out_dist,
+                                   FFTW_ESTIMATE);
   }
-  static void r2c(Plan p, float* in, Complex* out) { fftwf_execute_dft_r2c(p, in, out); }
-  static void c2r(Plan p, Complex* in, float* out) { fftwf_execute_dft_c2r(p, in, out); }
+  static Plan plan_c2c(int n, int howmany, Complex* data, int stride, int sign) {
+    return fftwf_plan_many_dft(1, &n, howmany, data, nullptr, stride, 1, data, nullptr, stride, 1, sign, FFTW_ESTIMATE);
+  }
 };
 
-// Memory aligned as FFTW's SIMD codelets want it: every buffer of a plan's kind alike, so one plan
-// serves all of them (new-array execution).
+// Memory aligned as FFTW's SIMD codelets want it.
 template <class T>
 class FftwBuffer {
  public:
@@ -68,8 +78,17 @@ class FftwBuffer {
   std::unique_ptr<T[], Free> data_;
 };
 
-// A real grid and its transform; forward() and backward() execute the plans for a thread count
-// (planned at its first use).
+// [begin, end): thread t's share of n items among nt threads, in order.
+struct Share {
+  int begin, end;
+};
+inline Share share_of(int n, int t, int nt) { return {int(long(n) * t / nt), int(long(n) * (t + 1) / nt)}; }
+
+// A real grid and its transform. Every thread of a parallel region calls each step in turn, with
+// a barrier wherever the next step reads another thread's share:
+//   forward_planes | forward_columns, (work on the thread's columns), backward_columns | backward_planes
+// Transforms are unnormalised; forward is e^{−2πi k·g/n}, backward e^{+2πi k·g/n} and destroys the
+// complex grid.
 template <class Real>
 class FftGrid {
  public:
@@ -86,22 +105,38 @@ class FftGrid {
   int row() const { return row_; }
   int complex_row() const { return n_[2] / 2 + 1; }
 
-  void forward(int threads);   // real → complex (unnormalised, e^{−2πi k·g/n})
-  void backward(int threads);  // complex → real (unnormalised, e^{+2πi k·g/n}); the complex grid is destroyed
+  Share planes(int t, int nt) const { return share_of(n_[0], t, nt); }  // x
+  Share rows(int t, int nt) const { return share_of(n_[1], t, nt); }    // y: the thread's columns
+
+  // Plans for nt threads, made outside the parallel region (where a failure can be thrown);
+  // otherwise the first step of a new thread count makes them.
+  void prepare(int nt) { plans(0, nt); }
+  void forward_planes(int t, int nt) { execute(plans(t, nt).forward_planes); }
+  void forward_columns(int t, int nt) { execute(plans(t, nt).forward_columns); }
+  void backward_columns(int t, int nt) { execute(plans(t, nt).backward_columns); }
+  void backward_planes(int t, int nt) { execute(plans(t, nt).backward_planes); }
 
  private:
   using Api = FftwApi<Real>;
-  struct Plans {
-    int threads;
-    typename Api::Plan forward, backward;
+  // One thread's plans (null where its share is empty: FFTW executes nothing for them).
+  struct ThreadPlans {
+    typename Api::Plan forward_planes = nullptr, forward_columns = nullptr, backward_columns = nullptr,
+                       backward_planes = nullptr;
   };
-  const Plans& plans(int threads);
+  struct ThreadCountPlans {
+    int threads;
+    std::vector<ThreadPlans> of_thread;
+  };
+  static void execute(typename Api::Plan p) {
+    if (p != nullptr) Api::execute(p);
+  }
+  const ThreadPlans& plans(int t, int nt);
 
   std::array<int, 3> n_;
   int row_;
   FftwBuffer<Real> real_;
   FftwBuffer<typename Api::Complex> complex_;
-  std::vector<Plans> plans_;  // per thread count met
+  std::vector<std::unique_ptr<ThreadCountPlans>> plans_;  // per thread count met; stable while threads read them
 };
 
 }  // namespace vimd
