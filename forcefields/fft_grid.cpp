@@ -50,10 +50,10 @@ FftGrid<Real>::~FftGrid() {
 }
 
 template <class Real>
-const typename FftGrid<Real>::ThreadPlans& FftGrid<Real>::plans(int t, int nt) {
+const typename FftGrid<Real>::ThreadCountPlans& FftGrid<Real>::plan_set(int nt) {
   std::lock_guard<std::mutex> guard(planner_lock());
   for (const auto& count : plans_)
-    if (count->threads == nt) return count->of_thread[t];
+    if (count->threads == nt) return *count;
   auto count = std::make_unique<ThreadCountPlans>(ThreadCountPlans{nt, std::vector<ThreadPlans>(nt)});
   const int ny = n_[1], nzc = complex_row();
   const int plane_n[2] = {ny, n_[2]}, real_embed[2] = {ny, row_}, complex_embed[2] = {ny, nzc};
@@ -79,7 +79,7 @@ const typename FftGrid<Real>::ThreadPlans& FftGrid<Real>::plans(int t, int nt) {
   }
   plans_.push_back(std::move(count));
   if (!planned) throw std::runtime_error("FFTW could not plan the Ewald mesh's transforms");
-  return plans_.back()->of_thread[t];
+  return *plans_.back();
 }
 
 template class FftGrid<double>;

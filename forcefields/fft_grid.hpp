@@ -108,9 +108,10 @@ class FftGrid {
   Share planes(int t, int nt) const { return share_of(n_[0], t, nt); }  // x
   Share rows(int t, int nt) const { return share_of(n_[1], t, nt); }    // y: the thread's columns
 
-  // Plans for nt threads, made outside the parallel region (where a failure can be thrown);
-  // otherwise the first step of a new thread count makes them.
-  void prepare(int nt) { plans(0, nt); }
+  // Makes (or finds) the plans for nt threads and makes them the current ones; called outside the
+  // parallel region, where a failure can be thrown and where taking the planner's lock costs the
+  // steps nothing. A step of another thread count (a nested region) looks its plans up under the lock.
+  void prepare(int nt) { current_ = &plan_set(nt); }
   void forward_planes(int t, int nt) { execute(plans(t, nt).forward_planes); }
   void forward_columns(int t, int nt) { execute(plans(t, nt).forward_columns); }
   void backward_columns(int t, int nt) { execute(plans(t, nt).backward_columns); }
@@ -118,7 +119,7 @@ class FftGrid {
 
  private:
   using Api = FftwApi<Real>;
-  // One thread's plans (null where its share is empty: FFTW executes nothing for them).
+  // One thread's plans (null where its share is empty: nothing to execute).
   struct ThreadPlans {
     typename Api::Plan forward_planes = nullptr, forward_columns = nullptr, backward_columns = nullptr,
                        backward_planes = nullptr;
@@ -130,13 +131,17 @@ class FftGrid {
   static void execute(typename Api::Plan p) {
     if (p != nullptr) Api::execute(p);
   }
-  const ThreadPlans& plans(int t, int nt);
+  const ThreadCountPlans& plan_set(int nt);  // under the planner's lock
+  const ThreadPlans& plans(int t, int nt) {
+    return current_ != nullptr && current_->threads == nt ? current_->of_thread[t] : plan_set(nt).of_thread[t];
+  }
 
   std::array<int, 3> n_;
   int row_;
   FftwBuffer<Real> real_;
   FftwBuffer<typename Api::Complex> complex_;
   std::vector<std::unique_ptr<ThreadCountPlans>> plans_;  // per thread count met; stable while threads read them
+  const ThreadCountPlans* current_ = nullptr;              // the last prepared
 };
 
 }  // namespace vimd
