@@ -335,6 +335,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
   const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V one = V::broadcast(1.0), zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2);
+  ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if constexpr (kEnergies) half_lj[h] = half_coulomb[h] = 0;
@@ -349,6 +350,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
       const NeighborList::Entry entry = d.entries[e];
       hi.positions.follow(d, entry.shift());
       const std::uint32_t mask = entry.mask;
+      listed.start(mask);
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster() * kC + js;
@@ -362,7 +364,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
           const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
                   dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
-          const Mask inside = mask_from_bits<Real>(bits) & (r2 < cutoff2);
+          const Mask inside = listed.of(ii, js) & (r2 < cutoff2);
           if (kMasks && inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
           const V r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
           const V rinv = simd_rsqrt(r2s);
@@ -409,6 +411,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
   const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V one = V::broadcast(1.0), zero = V::zero();
+  ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
@@ -427,6 +430,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
       const NeighborList::Entry entry = d.entries[e];
       hi.positions.follow(d, entry.shift());
       const std::uint32_t mask = masks[e];
+      listed.start(mask);
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster() * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
@@ -440,7 +444,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
           const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
                   dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
-          const Mask inside = mask_from_bits<Real>(bits);
+          const Mask inside = listed.of(ii, js);
           const V r2s = select(inside, r2, one);
           const V rinv = simd_rsqrt(r2s);
           const PairDistance<Real> p{r2s, rinv, rinv * rinv};
