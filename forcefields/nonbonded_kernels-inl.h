@@ -320,6 +320,12 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Re
   Forms::load(d, h * kH, hi.forms);
 }
 
+// The least r² of the pair loops' arithmetic (GROMACS's floor in single precision; r⁻¹² still fits
+// a float): the lanes the masks drop (r = 0 on the diagonal) stay finite for one max instead of a
+// blend per vector. Their results are discarded; a listed pair closer than 0.6 pm would be clamped,
+// as in GROMACS.
+constexpr double kPairR2Floor = 3.82e-7;  // nm²
+
 // Forms: a combination of pair forms (Sum, SharedSwitch). Real: the precision of the pair
 // arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched). kMasks: also the inside
@@ -334,7 +340,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
   const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
-  const V one = V::broadcast(1.0), zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2);
+  const V zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2), r2_floor = V::broadcast(kPairR2Floor);
   ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -366,7 +372,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = listed.of(ii, js) & (r2 < cutoff2);
           if (kMasks && inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
-          const V r2s = select(inside, r2, one);  // keeps masked lanes finite (r = 0 on the diagonal)
+          const V r2s = simd_max(r2, r2_floor);
           const V rinv = simd_rsqrt(r2s);
           const PairDistance<Real> p{r2s, rinv, rinv * rinv};
           V g;
@@ -410,7 +416,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
   const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
-  const V one = V::broadcast(1.0), zero = V::zero();
+  const V zero = V::zero(), r2_floor = V::broadcast(kPairR2Floor);
   ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -445,7 +451,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
                   dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = listed.of(ii, js);
-          const V r2s = select(inside, r2, one);
+          const V r2s = simd_max(r2, r2_floor);
           const V rinv = simd_rsqrt(r2s);
           const PairDistance<Real> p{r2s, rinv, rinv * rinv};
           V a, b;
