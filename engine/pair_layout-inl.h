@@ -55,46 +55,50 @@ HWY_INLINE SimdVec<Real> broadcast_rows(const Real* values, int ii) {
   }
 }
 
-// The lanes an entry's pair mask lists (bit ii·kC + j for the pair of row ii and j atom j), per
-// vector of (row ii, j offset js). With mask registers (AVX-512) a vector mask is the scalar bits
-// moved in. Without (AVX2 and narrower) building one from scalar bits takes a move, a broadcast,
-// an and and a compare per vector; instead the mask is broadcast once per entry and each vector's
-// lanes are one test against that vector's lane bits. The lane bits are held, not computed at each
-// use: where the j offsets are a run-time loop they would be assembled by scalar stores that the
-// vector load cannot forward from.
+// The pairs an entry's mask lists (bit ii·kC + j for the pair of row ii and j atom j), per vector
+// of (row ii, j offset js): as scalar bits (to skip a vector with none) and as a vector mask. With
+// mask registers (AVX-512) the vector mask is the scalar bits moved in. Without (AVX2 and
+// narrower) building it from scalar bits takes a move, a broadcast, an and and a compare per
+// vector; instead the mask is broadcast once per entry and each vector's lanes are one test against
+// that vector's lane bits. The lane bits are held, not computed at each use: where the j offsets
+// are a run-time loop they would be assembled by scalar stores that the vector load cannot forward
+// from.
 template <class Real>
 class ListedLanes {
   using L = PairLayout<Real>;
   using Mask = SimdMaskOf<Real>;
   static constexpr int kC = NeighborList::kClusterSize;
-#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+
  public:
+  // The entry's bits of the vector of row ii and j offset js (0: no pair of it is listed).
+  HWY_INLINE unsigned bits(int ii, int js) const { return (mask_ >> (ii * kC + js)) & ((1u << L::kLanes) - 1); }
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
   HWY_INLINE void start(std::uint32_t mask) { mask_ = mask; }
-  HWY_INLINE Mask of(int ii, int js) const {
-    return mask_from_bits<Real>((mask_ >> (ii * kC + js)) & ((1u << L::kLanes) - 1));
-  }
+  HWY_INLINE Mask of(int ii, int js) const { return mask_from_bits<Real>(bits(ii, js)); }
 
  private:
   std::uint32_t mask_ = 0;
 #else
-  using Unsigned = hn::RebindToUnsigned<typename L::Tag>;
-  static constexpr int kJBlocks = kC / L::kJLanes;
-
- public:
   HWY_INLINE ListedLanes() {
     const Unsigned du;
     for (int r = 0; r < L::kRowVectors; ++r)
       for (int b = 0; b < kJBlocks; ++b)
         bit_[r][b] = hn::Shl(hn::Set(du, 1), hn::Iota(du, r * L::kRows * kC + b * L::kJLanes));
   }
-  HWY_INLINE void start(std::uint32_t mask) { mask_ = hn::Set(Unsigned(), mask); }
+  HWY_INLINE void start(std::uint32_t mask) {
+    mask_ = mask;
+    broadcast_ = hn::Set(Unsigned(), mask);
+  }
   HWY_INLINE Mask of(int ii, int js) const {
-    return {hn::RebindMask(typename L::Tag(), hn::TestBit(mask_, bit_[ii / L::kRows][js / L::kJLanes]))};
+    return {hn::RebindMask(typename L::Tag(), hn::TestBit(broadcast_, bit_[ii / L::kRows][js / L::kJLanes]))};
   }
 
  private:
+  using Unsigned = hn::RebindToUnsigned<typename L::Tag>;
+  static constexpr int kJBlocks = kC / L::kJLanes;
+  std::uint32_t mask_ = 0;
   hn::Vec<Unsigned> bit_[L::kRowVectors][kJBlocks];
-  hn::Vec<Unsigned> mask_;
+  hn::Vec<Unsigned> broadcast_;
 #endif
 };
 

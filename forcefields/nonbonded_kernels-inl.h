@@ -339,7 +339,6 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
-  const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2), r2_floor = V::broadcast(kPairR2Floor);
   ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
@@ -355,8 +354,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       hi.positions.follow(d, entry.shift());
-      const std::uint32_t mask = entry.mask;
-      listed.start(mask);
+      listed.start(entry.mask);
       std::uint32_t inside_bits = 0;
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster() * kC + js;
@@ -365,8 +363,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
         V fxj = zero, fyj = zero, fzj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ii += kRows) {
-          const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
-          if (bits == 0) continue;
+          if (listed.bits(ii, js) == 0) continue;
           const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
                   dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
@@ -415,7 +412,6 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
-  const unsigned lane_bits = (1u << PairLayout<Real>::kLanes) - 1;
   const V zero = V::zero(), r2_floor = V::broadcast(kPairR2Floor);
   ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
@@ -435,8 +431,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
     for (int e = e0; e < e1; ++e) {
       const NeighborList::Entry entry = d.entries[e];
       hi.positions.follow(d, entry.shift());
-      const std::uint32_t mask = masks[e];
-      listed.start(mask);
+      listed.start(masks[e]);
       for (int js = 0; js < kC; js += kJ) {
         const int jb = entry.j_cluster() * kC + js;
         const V xj = load_j(d.x + jb), yj = load_j(d.y + jb), zj = load_j(d.z + jb);
@@ -445,8 +440,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
         V oxj = zero, oyj = zero, ozj = zero;
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ii += kRows) {
-          const unsigned bits = (mask >> (ii * kC + js)) & lane_bits;
-          if (bits == 0) continue;
+          if (listed.bits(ii, js) == 0) continue;
           const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
                   dz = hi.positions.z[ii / kRows] - zj;
           const V r2 = dx * dx + dy * dy + dz * dz;
