@@ -498,15 +498,14 @@ HWY_INLINE std::uint32_t entry_inside_bits(const PairPositionsOf<Real>& d, Shift
 }
 
 template <class Real>
-void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_from, std::uint32_t* inside_masks) {
+void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, std::uint32_t* inside_masks) {
   using V = SimdVec<Real>;
   const V range2 = V::broadcast(d.cutoff2);
-  // In the entries' precision, rounded up: an entry at or beyond it is beyond skip_from.
-  float skip = static_cast<float>(skip_from);
-  if (skip < skip_from) skip = std::nextafter(skip, INFINITY);
   const hn::CappedTag<float, 16> df;
   const hn::Rebind<std::int32_t, decltype(df)> di;
+  const hn::Rebind<std::uint32_t, decltype(df)> du;
   const int lanes = static_cast<int>(hn::Lanes(df));
+  static_assert(sizeof(NeighborList::Entry) == 2 * sizeof(std::uint32_t), "Entry: two words");
   constexpr int kBlock = 256;
   HWY_ALIGN std::int32_t look[kBlock];  // a vector's compressed store stays below its own end
   for (int h = h0; h < h1; ++h) {
@@ -519,18 +518,23 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, double skip_fro
       for (int k = 0; k < count; ++k) inside_masks[e0 + k] = entry_inside_bits(d, positions, entries[k], range2);
       continue;
     }
-    // Which entries are nearer than skip is unpredictable: they are listed first, by vectors, as a
-    // branch per entry would cost more than the look itself.
+    const float half_skip = d.half_skip[h];
+    // Which entries are nearer than their skip distance is unpredictable: they are listed first,
+    // by vectors, as a branch per entry would cost more than the look itself.
     for (int k0 = 0; k0 < count; k0 += kBlock) {
       const int n = std::min(kBlock, count - k0);
       int m = 0, k = 0;
       for (; k + lanes <= n; k += lanes) {
-        const auto near = hn::Lt(hn::LoadU(df, nearest + k0 + k), hn::Set(df, skip));
+        hn::Vec<decltype(du)> cluster_and_shift, mask;
+        hn::LoadInterleaved2(du, reinterpret_cast<const std::uint32_t*>(entries + k0 + k), cluster_and_shift, mask);
+        const auto j_cluster = hn::BitCast(di, hn::ShiftRight<NeighborList::Entry::kShiftBits>(cluster_and_shift));
+        const auto skip = hn::Add(hn::Set(df, half_skip), hn::GatherIndex(df, d.cluster_moved, j_cluster));
+        const auto near = hn::Lt(hn::LoadU(df, nearest + k0 + k), skip);
         m += static_cast<int>(hn::CompressStore(hn::Iota(di, k0 + k), hn::RebindMask(di, near), di, look + m));
       }
       for (; k < n; ++k) {
         look[m] = k0 + k;
-        m += nearest[k0 + k] < skip;
+        m += nearest[k0 + k] < half_skip + d.cluster_moved[entries[k0 + k].j_cluster()];
       }
       std::fill_n(inside_masks + e0 + k0, n, 0u);
       for (int t = 0; t < m; ++t) inside_masks[e0 + look[t]] = entry_inside_bits(d, positions, entries[look[t]], range2);

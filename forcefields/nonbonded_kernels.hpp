@@ -27,6 +27,11 @@ struct PairPositionsOf {
   // entries and nearest distances begin at half_entries[h] and half_nearest[h], not entries + half_start[h].
   const NeighborList::Entry* const* half_entries = nullptr;
   const float* const* half_nearest = nullptr;
+  // With half_nearest: an entry of half h and j-cluster c whose nearest distance is at least
+  // half_skip[h] + cluster_moved[c] (nm, rounded up, so that their float sum is too) is known to
+  // have no pair inside the range, unseen.
+  const float* half_skip = nullptr;
+  const float* cluster_moved = nullptr;
 };
 
 // Everything the pair loops read: the atoms' parameters as plain pointers, and the constants of
@@ -63,13 +68,11 @@ using ForceKernel = void (*)(const PairView&, int h0, int h1, double* fx, double
 using SingleForceKernel = void (*)(const PairViewOf<float>&, int h0, int h1, float* fx, float* fy, float* fz,
                                    double* half_lj, double* half_coulomb, std::uint32_t* inside_masks);
 // inside_masks[e] = the bits of entry e's listed pairs that are inside the cut-off, for [h0, h1);
-// 0 without a look at its atoms for an entry whose `nearest` is at least skip_from (nm; where
-// half_nearest is given).
-using MaskKernel = void (*)(const PairPositionsOf<double>&, int h0, int h1, double skip_from, std::uint32_t* inside_masks);
+// 0 without a look at its atoms for an entry the view's half_skip and cluster_moved put beyond it.
+using MaskKernel = void (*)(const PairPositionsOf<double>&, int h0, int h1, std::uint32_t* inside_masks);
 // The same on single-precision positions (twice the pairs per vector); its rounding is the
 // caller's to cover, with a cut-off a little beyond the range it needs.
-using SingleMaskKernel = void (*)(const PairPositionsOf<float>&, int h0, int h1, double skip_from,
-                                 std::uint32_t* inside_masks);
+using SingleMaskKernel = void (*)(const PairPositionsOf<float>&, int h0, int h1, std::uint32_t* inside_masks);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz), over the pairs masks[e] selects in entry e:
 // those that interact (inside masks of a force or mask pass); the kernel does not test the cut-off.
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,

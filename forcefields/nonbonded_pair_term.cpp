@@ -426,7 +426,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
       },
       [&](int t, int nt, Real* ox, Real* oy, Real* oz) {
         for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
-          if (find_masks) mask_kernel(view, h0, h1, INFINITY, w.list_masks.data());
+          if (find_masks) mask_kernel(view, h0, h1, w.list_masks.data());
           pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });
         for (int b = t; b < n_blocks; b += nt)

@@ -26,8 +26,10 @@ double max_abs_coordinate(const Coords& q) {
 constexpr double kStepReachMargin = 1.3;
 constexpr double kMinStepSkin = 0.005;  // nm
 
-// Lists with fewer entries are narrowed on one thread: starting a team would cost more.
+// Lists with fewer entries are narrowed on one thread, and fewer halves measured on one: starting
+// a team would cost more.
 constexpr std::size_t kParallelEntries = 2048;
+constexpr int kParallelHalves = 2048;
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -39,33 +41,59 @@ PairLists::PairLists(const Box& box, double cutoff, double search_skin, double s
                      std::vector<std::vector<int>> exclusions, std::vector<char> leading)
     : skin_(skin), list_(box, cutoff, search_skin, std::move(exclusions), std::move(leading)) {}
 
-double PairLists::search(const Coords& q, double allowed) {
+void PairLists::search(const Coords& q, double allowed) {
   const long builds = list_.builds();
-  const double moved = list_.update(q, allowed);
+  list_.update(q, allowed);
   if (list_.builds() != builds) searched_id_ = ++changes_;
-  return moved;
 }
 
 void PairLists::keep_regular(const Coords& q, double allowed, bool single) {
-  if (!pruning())
+  if (!pruning()) {
     search(q, allowed);
-  else if (prunes_ == 0 || max_displacement(q, pruned_at_) > allowed)
-    prune(q, search(q, 0.5 * (list_.skin() - skin_)), single);
+  } else if (prunes_ == 0 || max_displacement(q, pruned_at_) > allowed) {
+    search(q, 0.5 * (list_.skin() - skin_));
+    prune(q, single);
+  }
 }
 
-void PairLists::prune(const Coords& q, double moved_since_search, bool single) {
+void PairLists::prune(const Coords& q, bool single) {
   const auto start = std::chrono::steady_clock::now();
   const double range = list_.cutoff() + skin_;
-  // Since the search no pair came closer by more than twice the largest displacement: an entry
-  // whose atoms were all that much beyond the pruned range then cannot have a pair inside it now.
-  narrow(searched_halves(), q, range, range + 2 * moved_since_search, single, pruned_);
+  // Since the search no pair of half h and cluster c came closer by more than the largest
+  // displacements among their atoms, D_h + D_c: an entry whose atoms were all that much beyond the
+  // pruned range then cannot have a pair inside it now. Water moves unevenly: most entries' bound
+  // is well below twice the largest displacement of all.
+  const int n_halves = list_.n_halves();
+  half_skip_.resize(n_halves);
+  cluster_moved_.resize(list_.n_clusters());
+  const Coords& searched_at = list_.built_at();
+  const std::vector<int>& slot_atom = list_.slot_atom();
+  constexpr int kHalf = NeighborList::kHalfSize;
+  // Rounded up to floats with room for the rounding of their float sum in the kernel.
+  const auto rounded_up = [](double x) {
+    const double widened = x * (1 + 0x1p-22);
+    float f = static_cast<float>(widened);
+    return f < widened ? std::nextafter(f, INFINITY) : f;
+  };
+#pragma omp parallel for schedule(static) if (n_halves >= kParallelHalves)
+  for (int c = 0; c < list_.n_clusters(); ++c) {
+    double half_moved2[2] = {0, 0};
+    for (int k = 0; k < NeighborList::kClusterSize; ++k) {
+      const int a = slot_atom[c * NeighborList::kClusterSize + k];
+      if (a < 0) continue;
+      double& moved2 = half_moved2[k / kHalf];
+      moved2 = std::max(moved2, (q.col(a) - searched_at.col(a)).squaredNorm());
+    }
+    for (int i = 0; i < 2; ++i) half_skip_[2 * c + i] = rounded_up(range + std::sqrt(half_moved2[i]));
+    cluster_moved_[c] = rounded_up(std::sqrt(std::max(half_moved2[0], half_moved2[1])));
+  }
+  narrow(searched_halves(), q, range, single, pruned_);
   pruned_at_ = q;
   ++prunes_;
   prune_seconds_ += seconds_since(start);
 }
 
-void PairLists::narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
-                       PairListEntries& to) {
+void PairLists::narrow(const PairListView& from, const Coords& q, double range, bool single, PairListEntries& to) {
   const int n_slots = list_.n_slots();
   const std::size_t n_entries = from.half_start.back();
   narrow_masks_.resize(n_entries);
@@ -79,16 +107,19 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   } else {
     for (auto* v : {&x_, &y_, &z_}) v->resize(n_slots);
   }
-  if (skip_from < INFINITY && from.half_nearest.empty())
-    throw std::logic_error("PairLists::narrow: skipping by distance needs the entries' nearest distances");
+  if (!from.half_nearest.empty() && (half_skip_.size() != from.half_start.size() - 1 ||
+                                     cluster_moved_.size() != static_cast<std::size_t>(list_.n_clusters())))
+    throw std::logic_error("PairLists::narrow: skipping by distance needs each half's and cluster's displacement");
   const bool by_halves = !from.half_entries.empty();
   const NeighborList::Entry* const* half_entries = by_halves ? from.half_entries.data() : nullptr;
   const float* const* half_nearest = from.half_nearest.empty() ? nullptr : from.half_nearest.data();
-  PairPositionsOf<double> view{x_.data(),           y_.data(),   z_.data(), from.entries.data(), from.half_start.data(),
-                               list_.shift_vectors().data(), range * range, half_entries, half_nearest};
-  PairPositionsOf<float> float_view{x_single_.data(),     y_single_.data(),     z_single_.data(),
-                                    from.entries.data(),  from.half_start.data(), list_.shift_vectors().data(),
-                                    float_range * float_range, half_entries, half_nearest};
+  PairPositionsOf<double> view{x_.data(),           y_.data(),     z_.data(),         from.entries.data(),
+                               from.half_start.data(), list_.shift_vectors().data(), range * range,
+                               half_entries,          half_nearest,  half_skip_.data(), cluster_moved_.data()};
+  PairPositionsOf<float> float_view{x_single_.data(),       y_single_.data(),     z_single_.data(),
+                                    from.entries.data(),    from.half_start.data(), list_.shift_vectors().data(),
+                                    float_range * float_range, half_entries,     half_nearest,
+                                    half_skip_.data(),      cluster_moved_.data()};
   const MaskKernel kernel = simd::mask_kernel();
   const SingleMaskKernel float_kernel = simd::single_mask_kernel();
   const int n_halves = list_.n_halves();
@@ -106,9 +137,9 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
       if (single)
-        float_kernel(float_view, h0, h1, skip_from, narrow_masks_.data());
+        float_kernel(float_view, h0, h1, narrow_masks_.data());
       else
-        kernel(view, h0, h1, skip_from, narrow_masks_.data());
+        kernel(view, h0, h1, narrow_masks_.data());
       int kept = 0;
       for (int h = h0; h < h1; ++h) {
         for (int e = from.half_start[h]; e < from.half_start[h + 1]; ++e) kept += narrow_masks_[e] != 0;
@@ -175,7 +206,7 @@ void PairLists::prune_step(StepList& step, const Coords& q, double skin, bool si
   const auto start = std::chrono::steady_clock::now();
   // The fixed pair set (skin 0) is exactly the pairs inside the cut-off at q: double-precision
   // distances. A buffered step list may be cut on the cheaper single-precision ones.
-  narrow(regular(), q, list_.cutoff() + skin, INFINITY, skin > 0 && single, step.list);
+  narrow(regular(), q, list_.cutoff() + skin, skin > 0 && single, step.list);
   step.at = q;
   step.skin = skin;
   step.build = list_.builds();
@@ -202,7 +233,7 @@ void PairLists::restore(const Carried& in, bool single) {
   if (in.has("neighbor_list_pruned_at")) {
     const Coords pruned_at = in.coords("neighbor_list_pruned_at");
     if (pruned_at.cols() != built_at.cols()) throw std::invalid_argument("PairLists::restore: wrong number of atoms");
-    prune(pruned_at, max_displacement(pruned_at, built_at), single);
+    prune(pruned_at, single);
   }
 }
 

@@ -123,17 +123,14 @@ class PairLists {
     return {{}, list_.half_start(), searched_id_, half_entries_, half_nearest_};
   }
   void keep_regular(const Coords& q, double allowed, bool single);
-  // Searches again unless every atom is within `allowed` of the last search; returns the largest
-  // displacement since the search (0 after a new one).
-  double search(const Coords& q, double allowed);
-  // moved_since_search: the largest displacement from the search's positions to q.
-  void prune(const Coords& q, double moved_since_search, bool single);
+  // Searches again unless every atom is within `allowed` of the last search.
+  void search(const Coords& q, double allowed);
+  void prune(const Coords& q, bool single);
   // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
-  // those pairs, into `to` in half order. Entries whose `nearest` is at least skip_from are dropped
-  // unseen (from.half_nearest must then be there). single: compare single-precision distances (the
-  // range is widened by their rounding).
-  void narrow(const PairListView& from, const Coords& q, double range, double skip_from, bool single,
-              PairListEntries& to);
+  // those pairs, into `to` in half order. Where from has nearest distances (a searched list),
+  // entries that half_skip_ and cluster_moved_ put beyond the range are dropped unseen. single:
+  // compare single-precision distances (the range is widened by their rounding).
+  void narrow(const PairListView& from, const Coords& q, double range, bool single, PairListEntries& to);
   // The step list at q with buffer `skin` (0: the pairs inside the cut-off).
   void prune_step(StepList& step, const Coords& q, double skin, bool single);
   double step_skin_after(double reach) const;
@@ -148,6 +145,9 @@ class PairLists {
   std::vector<std::uint32_t> narrow_masks_;  // per entry of the list being narrowed
   std::vector<const NeighborList::Entry*> half_entries_;  // searched_halves()'s
   std::vector<const float*> half_nearest_;
+  // For a pruning: per half, the range plus the largest displacement of its atoms since the
+  // search; per cluster, that displacement (nm, rounded up: PairPositionsOf).
+  std::vector<float> half_skip_, cluster_moved_;
   std::vector<double> x_, y_, z_;           // positions packed for a pruning
   std::vector<float> x_single_, y_single_, z_single_;
 };
