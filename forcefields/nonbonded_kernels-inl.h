@@ -345,6 +345,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if constexpr (kEnergies) half_lj[h] = half_coulomb[h] = 0;
     if (e0 == e1) continue;
+    const NeighborList::Entry* entries = entries_of_half(d, h);
     HalfDataOf<Forms, Real> hi;
     load_half<Forms>(d, h, hi);
     V fxi[kRowVectors], fyi[kRowVectors], fzi[kRowVectors];
@@ -352,7 +353,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
     V energy[kPairEnergies];
     for (V& e : energy) e = zero;
     for (int e = e0; e < e1; ++e) {
-      const NeighborList::Entry entry = d.entries[e];
+      const NeighborList::Entry entry = entries[e - e0];
       hi.positions.follow(d, entry.shift());
       listed.start(entry.mask);
       std::uint32_t inside_bits = 0;
@@ -417,6 +418,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
     if (e0 == e1) continue;
+    const NeighborList::Entry* entries = entries_of_half(d, h);
     HalfDataOf<Forms, Real> hi;
     load_half<Forms>(d, h, hi);
     const int ib = h * kH;
@@ -429,7 +431,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
     V oxi[kRowVectors], oyi[kRowVectors], ozi[kRowVectors];
     for (int r = 0; r < kRowVectors; ++r) oxi[r] = oyi[r] = ozi[r] = zero;
     for (int e = e0; e < e1; ++e) {
-      const NeighborList::Entry entry = d.entries[e];
+      const NeighborList::Entry entry = entries[e - e0];
       hi.positions.follow(d, entry.shift());
       listed.start(masks[e]);
       for (int js = 0; js < kC; js += kJ) {
@@ -497,8 +499,13 @@ HWY_INLINE std::uint32_t entry_inside_bits(const PairPositionsOf<Real>& d, Shift
   return inside_bits & entry.mask;
 }
 
-template <class Real>
-void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, std::uint32_t* inside_masks) {
+// keep(h, k, entry, bits) for the entries of halves [h0, h1) that may have a listed pair inside the
+// range, in order: k the entry's place in its half, bits those pairs; then half_done(h). Entries
+// that the view's half_skip and cluster_moved put beyond the range are passed over unseen (their
+// bits would be 0).
+template <class Real, class Keep, class HalfDone>
+HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, int h1, Keep&& keep,
+                                      HalfDone&& half_done) {
   using V = SimdVec<Real>;
   const V range2 = V::broadcast(d.cutoff2);
   const hn::CappedTag<float, 16> df;
@@ -511,11 +518,12 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, std::uint32_t* 
   for (int h = h0; h < h1; ++h) {
     ShiftedHalf<Real> positions;
     positions.start(h);
-    const int e0 = d.half_start[h], count = d.half_start[h + 1] - e0;
-    const NeighborList::Entry* entries = d.half_entries ? d.half_entries[h] : d.entries + e0;
+    const int count = d.half_start[h + 1] - d.half_start[h];
+    const NeighborList::Entry* entries = entries_of_half(d, h);
     const float* nearest = d.half_nearest ? d.half_nearest[h] : nullptr;
     if (!nearest) {
-      for (int k = 0; k < count; ++k) inside_masks[e0 + k] = entry_inside_bits(d, positions, entries[k], range2);
+      for (int k = 0; k < count; ++k) keep(h, k, entries[k], entry_inside_bits(d, positions, entries[k], range2));
+      half_done(h);
       continue;
     }
     const float half_skip = d.half_skip[h];
@@ -536,10 +544,41 @@ void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, std::uint32_t* 
         look[m] = k0 + k;
         m += nearest[k0 + k] < half_skip + d.cluster_moved[entries[k0 + k].j_cluster()];
       }
-      std::fill_n(inside_masks + e0 + k0, n, 0u);
-      for (int t = 0; t < m; ++t) inside_masks[e0 + look[t]] = entry_inside_bits(d, positions, entries[look[t]], range2);
+      for (int t = 0; t < m; ++t) {
+        const NeighborList::Entry& entry = entries[look[t]];
+        keep(h, look[t], entry, entry_inside_bits(d, positions, entry, range2));
+      }
     }
+    half_done(h);
   }
+}
+
+template <class Real>
+void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, std::uint32_t* inside_masks) {
+  std::fill(inside_masks + d.half_start[h0], inside_masks + d.half_start[h1], 0u);
+  inside_bits_of_halves(
+      d, h0, h1,
+      [&](int h, int k, const NeighborList::Entry&, std::uint32_t bits) { inside_masks[d.half_start[h] + k] = bits; },
+      [](int) {});
+}
+
+template <class Real>
+int narrow_halves(const PairPositionsOf<Real>& d, int h0, int h1, NeighborList::Entry* kept, int* kept_of_half) {
+  int n = 0, before = 0;
+  // Without a branch (which entries stay is unpredictable): every entry looked at is written, and
+  // the next one overwrites it unless it stays.
+  inside_bits_of_halves(
+      d, h0, h1,
+      [&](int, int, const NeighborList::Entry& entry, std::uint32_t bits) {
+        kept[n] = entry;
+        kept[n].mask = bits;
+        n += bits != 0;
+      },
+      [&](int h) {
+        kept_of_half[h - h0] = n - before;
+        before = n;
+      });
+  return n;
 }
 
 // Lane k: values[index_k] in double precision, for the lanes of SimdDouble.

@@ -23,8 +23,9 @@ struct PairPositionsOf {
   const int* half_start;
   const Vec3* shifts;
   double cutoff2;
-  // Where given (the mask kernel on a searched list, NeighborList::point_to_halves): half h's
-  // entries and nearest distances begin at half_entries[h] and half_nearest[h], not entries + half_start[h].
+  // Where given (a searched list, NeighborList::point_to_halves; a list narrowed from one, kept in
+  // each thread's part): half h's entries begin at half_entries[h], not entries + half_start[h].
+  // Only a searched list has nearest distances; they begin at half_nearest[h].
   const NeighborList::Entry* const* half_entries = nullptr;
   const float* const* half_nearest = nullptr;
   // With half_nearest: an entry of half h and j-cluster c whose nearest distance is at least
@@ -33,6 +34,12 @@ struct PairPositionsOf {
   const float* half_skip = nullptr;
   const float* cluster_moved = nullptr;
 };
+
+// Half h's entries: at half_entries[h] where given (a list kept in parts), else in `entries`.
+template <class Real>
+inline const NeighborList::Entry* entries_of_half(const PairPositionsOf<Real>& d, int h) {
+  return d.half_entries ? d.half_entries[h] : d.entries + d.half_start[h];
+}
 
 // Everything the pair loops read: the atoms' parameters as plain pointers, and the constants of
 // the pair forms. Positions and charges are in slot order; the LJ parameters of type t with the
@@ -73,6 +80,13 @@ using MaskKernel = void (*)(const PairPositionsOf<double>&, int h0, int h1, std:
 // The same on single-precision positions (twice the pairs per vector); its rounding is the
 // caller's to cover, with a cut-off a little beyond the range it needs.
 using SingleMaskKernel = void (*)(const PairPositionsOf<float>&, int h0, int h1, std::uint32_t* inside_masks);
+// The entries of [h0, h1) with a pair inside the cut-off, their masks cut to those pairs, into
+// kept (room for all of the halves' entries) in order; kept_of_half[h − h0]: how many of half h's.
+// Returns how many in all.
+using NarrowKernel = int (*)(const PairPositionsOf<double>&, int h0, int h1, NeighborList::Entry* kept,
+                             int* kept_of_half);
+using SingleNarrowKernel = int (*)(const PairPositionsOf<float>&, int h0, int h1, NeighborList::Entry* kept,
+                                   int* kept_of_half);
 // (∇²V u) of the i-halves [h0, h1) into (ox, oy, oz), over the pairs masks[e] selects in entry e:
 // those that interact (inside masks of a force or mask pass); the kernel does not test the cut-off.
 using HessianKernel = void (*)(const PairView&, const double* ux, const double* uy, const double* uz,
@@ -98,6 +112,8 @@ ForceKernel force_kernel(const PairFormConstants& forms, bool energies, bool mas
 SingleForceKernel single_force_kernel(const PairFormConstants& forms, bool energies, bool masks);
 MaskKernel mask_kernel();
 SingleMaskKernel single_mask_kernel();
+NarrowKernel narrow_kernel();
+SingleNarrowKernel single_narrow_kernel();
 HessianKernel hessian_kernel(const PairFormConstants& forms);
 SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms);
 ExcludedKernelOf<double> excluded_kernel();

@@ -19,6 +19,7 @@ HessianKernel HessianKernelFor(const PairFormConstants& forms) {
   return hessian_kernel_among<double>(forms, Combinations{});
 }
 MaskKernel MaskKernelFor() { return mask_halves<double>; }
+NarrowKernel NarrowKernelFor() { return narrow_halves<double>; }
 ExcludedKernelOf<double> ExcludedKernelFor() { return excluded_pairs<double>; }
 std::int64_t Target() { return HWY_TARGET; }
 int Lanes() { return SimdDouble::lanes(); }
@@ -35,6 +36,7 @@ namespace vimd {
 HWY_EXPORT(ForceKernelFor);
 HWY_EXPORT(HessianKernelFor);
 HWY_EXPORT(MaskKernelFor);
+HWY_EXPORT(NarrowKernelFor);
 HWY_EXPORT(ExcludedKernelFor);
 HWY_EXPORT(Target);
 HWY_EXPORT(Lanes);
@@ -50,6 +52,8 @@ HessianKernel hessian_kernel(const PairFormConstants& forms) {
 }
 
 MaskKernel mask_kernel() { return HWY_DYNAMIC_DISPATCH(MaskKernelFor)(); }
+
+NarrowKernel narrow_kernel() { return HWY_DYNAMIC_DISPATCH(NarrowKernelFor)(); }
 
 ExcludedKernelOf<double> excluded_kernel() { return HWY_DYNAMIC_DISPATCH(ExcludedKernelFor)(); }
 

@@ -19,6 +19,7 @@ SingleHessianKernel SingleHessianKernelFor(const PairFormConstants& forms) {
   return hessian_kernel_among<float>(forms, Combinations{});
 }
 SingleMaskKernel SingleMaskKernelFor() { return mask_halves<float>; }
+SingleNarrowKernel SingleNarrowKernelFor() { return narrow_halves<float>; }
 ExcludedKernelOf<float> SingleExcludedKernelFor() { return excluded_pairs<float>; }
 
 }  // namespace HWY_NAMESPACE
@@ -31,6 +32,7 @@ namespace vimd {
 HWY_EXPORT(SingleForceKernelFor);
 HWY_EXPORT(SingleHessianKernelFor);
 HWY_EXPORT(SingleMaskKernelFor);
+HWY_EXPORT(SingleNarrowKernelFor);
 HWY_EXPORT(SingleExcludedKernelFor);
 
 namespace simd {
@@ -44,6 +46,8 @@ SingleHessianKernel single_hessian_kernel(const PairFormConstants& forms) {
 }
 
 SingleMaskKernel single_mask_kernel() { return HWY_DYNAMIC_DISPATCH(SingleMaskKernelFor)(); }
+
+SingleNarrowKernel single_narrow_kernel() { return HWY_DYNAMIC_DISPATCH(SingleNarrowKernelFor)(); }
 
 ExcludedKernelOf<float> single_excluded_kernel() { return HWY_DYNAMIC_DISPATCH(SingleExcludedKernelFor)(); }
 

@@ -183,8 +183,10 @@ PairViewOf<Real> NonbondedPairTerm::pair_view(Workspace& w, const Visit& visit) 
   const double cutoff2 = visit.fixed ? std::numeric_limits<double>::infinity() : cutoff2_;
   const SlotArrays<Real>& a = w.template slot_arrays<Real>();
   const NeighborList& list = w.lists.searched();
+  const NeighborList::Entry* const* half_entries =
+      visit.list.half_entries.empty() ? nullptr : visit.list.half_entries.data();
   return {{a.x.data(), a.y.data(), a.z.data(), visit.list.entries.data(), visit.list.half_start.data(),
-           list.shift_vectors().data(), cutoff2},
+           list.shift_vectors().data(), cutoff2, half_entries},
           a.charge.data(),
           w.slot_type.data(),
           a.lj.data(),
@@ -199,8 +201,9 @@ bool NonbondedPairTerm::lists_pair(int a, int b, const TermStepState* step) cons
   auto holds = [&](int i_slot, int j_slot) {
     const int h = i_slot / kH;
     const std::uint32_t bit = 1u << ((i_slot % kH) * kC + j_slot % kC);
-    for (int e = listed.half_start[h]; e < listed.half_start[h + 1]; ++e)
-      if (listed.entries[e].j_cluster() == j_slot / kC && (listed.entries[e].mask & bit)) return true;
+    const NeighborList::Entry* entries = listed.entries_of(h);
+    for (int k = 0; k < listed.half_start[h + 1] - listed.half_start[h]; ++k)
+      if (entries[k].j_cluster() == j_slot / kC && (entries[k].mask & bit)) return true;
     return false;
   };
   const auto& atom_slot = run_.lists.searched().atom_slot();
@@ -209,7 +212,7 @@ bool NonbondedPairTerm::lists_pair(int a, int b, const TermStepState* step) cons
 }
 
 std::size_t NonbondedPairTerm::visited_entries(const TermStepState* step) const {
-  return visit(run_, step_of(step)).list.entries.size();
+  return visit(run_, step_of(step)).list.size();
 }
 
 void NonbondedPairTerm::restore(const Carried& in) {
@@ -347,11 +350,11 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
   if (keep) {
     keep->list_id = visit.list.id;
     keep->single_precision = std::is_same_v<Real, float>;
-    keep->bits.resize(visit.list.entries.size());
+    keep->bits.resize(visit.list.size());
     inside_masks = keep->bits.data();
   }
   run_parallel(
-      w, visit.list.entries.size(), slots.thread_buffers,
+      w, visit.list.size(), slots.thread_buffers,
       [&] { list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
       [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
         for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
@@ -407,9 +410,13 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
   if (reuse) {
     ++w.reused_masks;
   } else {
-    w.list_masks.resize(visit.list.entries.size());
+    w.list_masks.resize(visit.list.size());
     if (visit.fixed)
-      for (std::size_t e = 0; e < visit.list.entries.size(); ++e) w.list_masks[e] = visit.list.entries[e].mask;
+      for (std::size_t h = 0; h + 1 < visit.list.half_start.size(); ++h) {
+        const NeighborList::Entry* entries = visit.list.entries_of(static_cast<int>(h));
+        for (int e = visit.list.half_start[h]; e < visit.list.half_start[h + 1]; ++e)
+          w.list_masks[e] = entries[e - visit.list.half_start[h]].mask;
+      }
   }
   const std::uint32_t* masks = reuse ? masks_at_q->bits.data() : w.list_masks.data();
   const auto mask_kernel = [] {
@@ -419,7 +426,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
       return simd::mask_kernel();
   }();
   run_parallel(
-      w, visit.list.entries.size(), slots.thread_buffers,
+      w, visit.list.size(), slots.thread_buffers,
       [&] {
         list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data());
         list.pack_vectors(u, slots.ux.data(), slots.uy.data(), slots.uz.data());

@@ -95,8 +95,7 @@ void PairLists::prune(const Coords& q, bool single) {
 
 void PairLists::narrow(const PairListView& from, const Coords& q, double range, bool single, PairListEntries& to) {
   const int n_slots = list_.n_slots();
-  const std::size_t n_entries = from.half_start.back();
-  narrow_masks_.resize(n_entries);
+  const std::size_t n_entries = from.size();
   // Single-precision distances are compared with a range widened by a bound on their rounding
   // (coordinates and shifts below `magnitude`; a few roundings of each difference), so that every
   // pair truly within the range is kept.
@@ -110,8 +109,7 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   if (!from.half_nearest.empty() && (half_skip_.size() != from.half_start.size() - 1 ||
                                      cluster_moved_.size() != static_cast<std::size_t>(list_.n_clusters())))
     throw std::logic_error("PairLists::narrow: skipping by distance needs each half's and cluster's displacement");
-  const bool by_halves = !from.half_entries.empty();
-  const NeighborList::Entry* const* half_entries = by_halves ? from.half_entries.data() : nullptr;
+  const NeighborList::Entry* const* half_entries = from.half_entries.empty() ? nullptr : from.half_entries.data();
   const float* const* half_nearest = from.half_nearest.empty() ? nullptr : from.half_nearest.data();
   PairPositionsOf<double> view{x_.data(),           y_.data(),     z_.data(),         from.entries.data(),
                                from.half_start.data(), list_.shift_vectors().data(), range * range,
@@ -120,59 +118,58 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
                                     from.entries.data(),    from.half_start.data(), list_.shift_vectors().data(),
                                     float_range * float_range, half_entries,     half_nearest,
                                     half_skip_.data(),      cluster_moved_.data()};
-  const MaskKernel kernel = simd::mask_kernel();
-  const SingleMaskKernel float_kernel = simd::single_mask_kernel();
+  const NarrowKernel kernel = simd::narrow_kernel();
+  const SingleNarrowKernel float_kernel = simd::single_narrow_kernel();
   const int n_halves = list_.n_halves();
-  to.half_start.resize(n_halves + 1);
-  to.half_start[0] = 0;
-  std::vector<int> chunk_kept(half_chunks(n_halves) + 1, 0);
-  // Each thread narrows its chunks of halves and counts what each keeps; the chunks are then
-  // copied into place in half order (the result does not depend on the thread count).
-#pragma omp parallel if (n_entries >= kParallelEntries)
+  to.half_start.assign(n_halves + 1, 0);
+  const bool parallel = n_entries >= kParallelEntries;
+  to.parts.resize(std::max<std::size_t>(to.parts.size(), parallel ? omp_get_max_threads() : 1));
+  to.part_begin.assign(to.parts.size(), 0);
+  to.part_end.assign(to.parts.size(), 0);
+  // Each thread narrows its chunks of halves into its own part, and counts what each half keeps.
+#pragma omp parallel if (parallel)
   {
     if (single)
       list_.pack_positions(q, x_single_.data(), y_single_.data(), z_single_.data());
     else
       list_.pack_positions(q, x_.data(), y_.data(), z_.data());
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    std::vector<NeighborList::Entry>& part = to.parts[t];
+    std::size_t kept = 0;
+    bool first_chunk = true;
     for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
-      if (single)
-        float_kernel(float_view, h0, h1, narrow_masks_.data());
-      else
-        kernel(view, h0, h1, narrow_masks_.data());
-      int kept = 0;
-      for (int h = h0; h < h1; ++h) {
-        for (int e = from.half_start[h]; e < from.half_start[h + 1]; ++e) kept += narrow_masks_[e] != 0;
-        to.half_start[h + 1] = kept;  // within the chunk, until its offset is known
+      if (first_chunk) to.part_begin[t] = h0, first_chunk = false;
+      to.part_end[t] = h1;
+      const std::size_t room = kept + (from.half_start[h1] - from.half_start[h0]);
+      if (room > part.size()) {
+        if (room > part.capacity()) part.reserve(room + room / 8);  // not doubling: the list is large
+        part.resize(room);
       }
-      chunk_kept[h0 / kHalfChunk + 1] = kept;
-    });
-#pragma omp barrier
-#pragma omp single
-    {
-      std::partial_sum(chunk_kept.begin(), chunk_kept.end(), chunk_kept.begin());
-      to.entries.resize(chunk_kept.back());
-    }
-    for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
-      const int offset = chunk_kept[h0 / kHalfChunk];
-      // Without a branch (which entries stay is unpredictable): every entry is written, and the
-      // next one overwrites it unless it stays; each half's loop ends with its last kept entry
-      // (to.half_start holds the kept counts within the chunk), so the writes stay in its place.
-      int out = offset;
-      for (int h = h0; h < h1; ++h) {
-        const int e0 = from.half_start[h];
-        const NeighborList::Entry* entries = by_halves ? from.half_entries[h] : from.entries.data() + e0;
-        const std::uint32_t* masks = narrow_masks_.data() + e0;
-        const int half_end = to.half_start[h + 1] += offset;
-        for (int k = 0; out < half_end; ++k) {
-          to.entries[out] = entries[k];
-          to.entries[out].mask = masks[k];
-          out += masks[k] != 0;
-        }
-      }
+      int* kept_of_half = to.half_start.data() + h0 + 1;
+      kept += single ? float_kernel(float_view, h0, h1, part.data() + kept, kept_of_half)
+                     : kernel(view, h0, h1, part.data() + kept, kept_of_half);
     });
   }
+  std::partial_sum(to.half_start.begin(), to.half_start.end(), to.half_start.begin());
+  to.point_to_parts();
   to.id = ++changes_;
+}
+
+PairListEntries& PairListEntries::operator=(const PairListEntries& other) {
+  parts = other.parts;
+  part_begin = other.part_begin;
+  part_end = other.part_end;
+  half_start = other.half_start;
+  id = other.id;
+  point_to_parts();
+  return *this;
+}
+
+void PairListEntries::point_to_parts() {
+  half_entries.resize(half_start.empty() ? 0 : half_start.size() - 1);
+  for (std::size_t t = 0; t < parts.size(); ++t)
+    for (int h = part_begin[t]; h < part_end[t]; ++h)
+      half_entries[h] = parts[t].data() + (half_start[h] - half_start[part_begin[t]]);
 }
 
 double PairLists::step_skin_after(double reach) const {

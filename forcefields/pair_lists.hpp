@@ -61,17 +61,34 @@ struct PairListView {
   std::span<const NeighborList::Entry> entries;
   std::span<const int> half_start;
   long id = -1;
-  // A searched list as the search left it (entries then empty): per half, where its entries and
-  // their nearest distances begin (NeighborList::point_to_halves).
+  // A list kept in parts (entries then empty): per half, where its entries begin. A searched list
+  // as the search left it (NeighborList::point_to_halves) also has their nearest distances.
   std::span<const NeighborList::Entry* const> half_entries = {};
   std::span<const float* const> half_nearest = {};
+
+  const NeighborList::Entry* entries_of(int h) const {
+    return half_entries.empty() ? entries.data() + half_start[h] : half_entries[h];
+  }
+  std::size_t size() const { return half_start.empty() ? 0 : half_start.back(); }
 };
 
+// A narrowed list, kept where each thread of the narrowing wrote its run of halves: copying the
+// parts into one array would cost a pass over them and a second list's memory.
 struct PairListEntries {
-  std::vector<NeighborList::Entry> entries;
+  std::vector<std::vector<NeighborList::Entry>> parts;
+  std::vector<int> part_begin, part_end;  // part t holds halves [part_begin[t], part_end[t])
   std::vector<int> half_start;
+  std::vector<const NeighborList::Entry*> half_entries;  // into the parts
   long id = -1;
-  PairListView view() const { return {entries, half_start, id}; }
+
+  PairListEntries() = default;
+  PairListEntries(const PairListEntries& other) { *this = other; }
+  PairListEntries& operator=(const PairListEntries& other);
+  PairListEntries(PairListEntries&&) = default;  // moving a vector keeps its elements where they are
+  PairListEntries& operator=(PairListEntries&&) = default;
+
+  void point_to_parts();
+  PairListView view() const { return {{}, half_start, id, half_entries}; }
 };
 
 // A variational step's list (see the top of this file), kept from step to step.
@@ -127,7 +144,7 @@ class PairLists {
   void search(const Coords& q, double allowed);
   void prune(const Coords& q, bool single);
   // The entries of `from` with a listed pair closer than `range` at q, their masks narrowed to
-  // those pairs, into `to` in half order. Where from has nearest distances (a searched list),
+  // those pairs, into `to`. Where from has nearest distances (a searched list),
   // entries that half_skip_ and cluster_moved_ put beyond the range are dropped unseen. single:
   // compare single-precision distances (the range is widened by their rounding).
   void narrow(const PairListView& from, const Coords& q, double range, bool single, PairListEntries& to);
@@ -142,7 +159,6 @@ class PairLists {
   Coords pruned_at_;
   long prunes_ = 0, step_prunes_ = 0, changes_ = 0;
   double prune_seconds_ = 0;
-  std::vector<std::uint32_t> narrow_masks_;  // per entry of the list being narrowed
   std::vector<const NeighborList::Entry*> half_entries_;  // searched_halves()'s
   std::vector<const float*> half_nearest_;
   // For a pruning: per half, the range plus the largest displacement of its atoms since the
