@@ -1,5 +1,6 @@
 // vimd: the command line. The wiring from a run config to the simulation loop is app/model.*,
 // shared with the Python module (app/python).
+#include <malloc.h>
 #include <omp.h>
 #include <sys/stat.h>
 
@@ -300,6 +301,9 @@ void print_error(const char* kind, const std::string& message) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A fixed threshold: glibc otherwise raises it to the size of each large buffer freed, and the
+  // pair lists' regrown buffers then come from the heap, whose freed pages stay resident.
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
   CLI::App app{"vimd: molecular dynamics with RATTLE and variational integrators of any order"};
   app.require_subcommand(1);
   // Options of the program, accepted before or after the subcommand (`vimd run X.toml --threads 2`).
