@@ -555,7 +555,8 @@ HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, in
 
 template <class Real>
 void mask_halves(const PairPositionsOf<Real>& d, int h0, int h1, std::uint32_t* inside_masks) {
-  std::fill(inside_masks + d.half_start[h0], inside_masks + d.half_start[h1], 0u);
+  // Without nearest distances every entry is looked at, and written below.
+  if (d.half_nearest) std::fill(inside_masks + d.half_start[h0], inside_masks + d.half_start[h1], 0u);
   inside_bits_of_halves(
       d, h0, h1,
       [&](int h, int k, const NeighborList::Entry&, std::uint32_t bits) { inside_masks[d.half_start[h] + k] = bits; },
