@@ -161,7 +161,6 @@ class NeighborList {
 
   int n_clusters_ = 0;
   std::vector<int> slot_atom_, atom_slot_;
-  std::vector<int> padding_slots_;  // slots that hold no atom
   std::vector<float> slot_wrapped_[3];       // wrapped build positions in slot order, for the search
   double search_rounding_ = 0;               // nm: bound on the error of the search's distances
   std::vector<unsigned> cluster_occupancy_;  // per cluster: bit k set if slot k holds an atom
