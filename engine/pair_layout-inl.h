@@ -8,6 +8,8 @@
 #define VIMD_ENGINE_PAIR_LAYOUT_INL_H_
 #endif
 
+#include <type_traits>
+
 #include "engine/neighbor_list.hpp"
 #include "engine/simd-inl.h"
 
@@ -38,6 +40,10 @@ HWY_INLINE SimdVec<Real> load_j(const Real* p) {
   if constexpr (L::kRows == 1) {
     return simd_load(p);
   } else {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+    // One broadcasting load; Combine's load and insert would take a shuffle port the FMAs need.
+    if constexpr (std::is_same_v<Real, float>) return {hn::Vec<typename L::Tag>{_mm512_broadcast_f32x8(_mm256_loadu_ps(p))}};
+#endif
     const hn::Half<typename L::Tag> half;
     const auto j = hn::LoadU(half, p);
     return {Combine(typename L::Tag(), j, j)};
