@@ -42,7 +42,8 @@ HWY_INLINE SimdVec<Real> load_j(const Real* p) {
   } else {
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
     // One broadcasting load; Combine's load and insert would take a shuffle port the FMAs need.
-    if constexpr (std::is_same_v<Real, float>) return {hn::Vec<typename L::Tag>{_mm512_broadcast_f32x8(_mm256_loadu_ps(p))}};
+    if constexpr (std::is_same_v<Real, float>)
+      return {hn::Vec<typename L::Tag>{_mm512_broadcast_f32x8(_mm256_loadu_ps(p))}};
 #endif
     const hn::Half<typename L::Tag> half;
     const auto j = hn::LoadU(half, p);
