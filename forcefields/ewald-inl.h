@@ -85,11 +85,23 @@ HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T&
 // erfc(βr)/r = 1/r − β E(z) and (erfc(βr)/r + 2β/√π e^(−z))/r² = 1/r³ − β³ F(z). Fitted for
 // βr ≤ EwaldRealSpace::kRationalRange to each precision's rounding of the bare terms;
 // validation/fit_ewald_corrections.py prints the coefficients and their errors.
+// The double-precision corrections' polynomials as their even and their odd powers, each by Horner's rule
+// in z²: two chains of half the latency of one; the single-precision ones are too short to gain from it.
+template <class V, std::size_t N>
+HWY_INLINE V ewald_polynomial_even_odd(V z, V z2, const double (&c)[N]) {
+  constexpr std::size_t kTopEven = (N - 1) / 2 * 2, kTopOdd = (N - 2) / 2 * 2 + 1;
+  V even = V::broadcast(c[kTopEven]), odd = V::broadcast(c[kTopOdd]);
+  for (std::size_t k = kTopEven; k >= 2; k -= 2) even = mul_add(even, z2, V::broadcast(c[k - 2]));
+  for (std::size_t k = kTopOdd; k >= 3; k -= 2) odd = mul_add(odd, z2, V::broadcast(c[k - 2]));
+  return mul_add(odd, z, even);
+}
 template <class V>
 HWY_INLINE V ewald_rational(V z, const double (&num)[6], const double (&den)[7], const double (&num_double)[11],
                             const double (&den_double)[11]) {
-  if constexpr (std::is_same_v<V, SimdVec<double>>)
-    return ewald_polynomial(z, num_double) / ewald_polynomial(z, den_double);
+  if constexpr (std::is_same_v<V, SimdVec<double>>) {
+    const V z2 = z * z;
+    return ewald_polynomial_even_odd(z, z2, num_double) / ewald_polynomial_even_odd(z, z2, den_double);
+  }
   return ewald_polynomial(z, num) / ewald_polynomial(z, den);
 }
 template <class V>
