@@ -30,6 +30,18 @@ HWY_INLINE V ewald_polynomial(V x, const double (&c)[N]) {
   return p;
 }
 
+// The same as its even and its odd powers, each by Horner's rule in x² (given): two chains of half the
+// latency of one, for the double-precision Ewald corrections (the single-precision ones are too short
+// to gain from it).
+template <class V, std::size_t N>
+HWY_INLINE V ewald_polynomial_even_odd(V x, V x2, const double (&c)[N]) {
+  constexpr std::size_t kTopEven = (N - 1) / 2 * 2, kTopOdd = (N - 2) / 2 * 2 + 1;
+  V even = V::broadcast(c[kTopEven]), odd = V::broadcast(c[kTopOdd]);
+  for (std::size_t k = kTopEven; k >= 2; k -= 2) even = mul_add(even, x2, V::broadcast(c[k - 2]));
+  for (std::size_t k = kTopOdd; k >= 3; k -= 2) odd = mul_add(odd, x2, V::broadcast(c[k - 2]));
+  return mul_add(odd, x, even);
+}
+
 // erfc(x) for x ≥ 0 and e^(−x²), lane by lane. W. J. Cody, "Rational Chebyshev approximations for
 // the error function", Math. Comp. 23 (1969) 631-637 (the coefficients of Netlib's specfun/calerf),
 // relative error ~1e-16 in double; each range only where a lane needs it (the range of most pairs,
@@ -85,16 +97,6 @@ HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T&
 // erfc(βr)/r = 1/r − β E(z) and (erfc(βr)/r + 2β/√π e^(−z))/r² = 1/r³ − β³ F(z). Fitted for
 // βr ≤ EwaldRealSpace::kRationalRange to each precision's rounding of the bare terms;
 // validation/fit_ewald_corrections.py prints the coefficients and their errors.
-// The double-precision corrections' polynomials as their even and their odd powers, each by Horner's rule
-// in z²: two chains of half the latency of one; the single-precision ones are too short to gain from it.
-template <class V, std::size_t N>
-HWY_INLINE V ewald_polynomial_even_odd(V z, V z2, const double (&c)[N]) {
-  constexpr std::size_t kTopEven = (N - 1) / 2 * 2, kTopOdd = (N - 2) / 2 * 2 + 1;
-  V even = V::broadcast(c[kTopEven]), odd = V::broadcast(c[kTopOdd]);
-  for (std::size_t k = kTopEven; k >= 2; k -= 2) even = mul_add(even, z2, V::broadcast(c[k - 2]));
-  for (std::size_t k = kTopOdd; k >= 3; k -= 2) odd = mul_add(odd, z2, V::broadcast(c[k - 2]));
-  return mul_add(odd, z, even);
-}
 template <class V>
 HWY_INLINE V ewald_rational(V z, const double (&num)[6], const double (&den)[7], const double (&num_double)[11],
                             const double (&den_double)[11]) {
