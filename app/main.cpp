@@ -20,6 +20,7 @@
 #include "engine/observers.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
+#include "engine/thread_pinning.hpp"
 #include "forcefields/ewald.hpp"
 #include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/nonbonded_pair_term.hpp"
@@ -93,6 +94,7 @@ struct RunOptions {
   std::string out, continue_dir;
   long steps = -1;
   bool overwrite = false;
+  std::string pinning;  // ThreadPinning::description
 };
 
 // The shell command that continues a stopped run.
@@ -136,14 +138,17 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
     prepare_output_dir(dir, options.overwrite);
   }
 
-  add_output_observers(run, config, dir, platform_facts(config));
+  auto platform = platform_facts(config);
+  platform.emplace_back("pinned", options.pinning);
+  add_output_observers(run, config, dir, std::move(platform));
   run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
   run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
 
   const int threads = omp_get_max_threads();
-  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d thread%s, SIMD %s, output in %s\n",
+  std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d thread%s (pinned: %s), SIMD %s, output in %s\n",
               config.file.string().c_str(), system.n_atoms(), run.integrator->name().c_str(), config.integrator.dt,
-              steps, threads, threads == 1 ? "" : "s", simd_description().c_str(), dir.string().c_str());
+              steps, threads, threads == 1 ? "" : "s", options.pinning.c_str(), simd_description().c_str(),
+              dir.string().c_str());
   if (continuing)
     std::printf("vimd run: continuing from step %ld (%s)\n", checkpoint.state.step, checkpoint_file.string().c_str());
   std::fflush(stdout);
@@ -206,7 +211,7 @@ std::string describe_pair_list(const ForceField& field) {
   return "no pair list";
 }
 
-int check_command(const fs::path& config_file) {
+int check_command(const fs::path& config_file, const std::string& pinning) {
   std::unique_ptr<Model> model = load_and_warn(config_file);
   const Model& m = *model;
   const RunConfig& c = m.input.config;
@@ -267,8 +272,8 @@ int check_command(const fs::path& config_file) {
   std::printf("%severy other key at its default (vimd keys lists them)\n", settings.empty() ? "settings    " : "            ");
   std::string targets;
   for (const auto& t : simd::available_targets()) targets += (targets.empty() ? "" : ", ") + t;
-  std::printf("platform    SIMD %s, chosen at run time from %s; %d OpenMP threads\n", simd_description().c_str(),
-              targets.c_str(), omp_get_max_threads());
+  std::printf("platform    SIMD %s, chosen at run time from %s; %d OpenMP threads, pinned: %s\n",
+              simd_description().c_str(), targets.c_str(), omp_get_max_threads(), pinning.c_str());
   return 0;
 }
 
@@ -314,6 +319,11 @@ int main(int argc, char** argv) {
   std::string simd_target;
   app.add_option("--simd", simd_target,
                  "SIMD target of the pair kernels, e.g. AVX2 (default: the best this CPU runs; `vimd check` lists them)");
+  std::string pin = "auto";
+  app.add_option("--pin", pin,
+                 "pin the threads to CPUs: auto (when they use every CPU, as gmx mdrun -pin auto), on, off "
+                 "(default: auto; OMP_PROC_BIND, OMP_PLACES or a narrowed CPU set leave them to OpenMP)")
+      ->check(CLI::IsMember({"auto", "on", "off"}));
 
   std::string config;
   RunOptions run_options;
@@ -336,6 +346,7 @@ int main(int argc, char** argv) {
   keys->add_flag("--markdown", markdown, "as docs/run-file.md");
   CLI11_PARSE(app, argc, argv);
   if (threads > 0) omp_set_num_threads(threads);
+  run_options.pinning = pin_threads(parse_pin_mode(pin), omp_get_max_threads()).description;
   // Past a file-size limit, writes should fail with EFBIG (reported as an error), not kill vimd.
   std::signal(SIGXFSZ, SIG_IGN);
 
@@ -344,7 +355,7 @@ int main(int argc, char** argv) {
     if (run->parsed()) return run_command(config, run_options);
     if (energy->parsed()) return energy_command(config, json);
     if (keys->parsed()) return keys_command(markdown);
-    return check_command(config);
+    return check_command(config, run_options.pinning);
   } catch (const InputError& e) {
     print_error("input error: ", e.what());
     return 2;

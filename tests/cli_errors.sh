@@ -72,5 +72,7 @@ if grep -qil -e nan -e inf "$work/blowup20"/energy.*.partial; then
   echo "FAIL blow-up: NaN or Inf in the energy files"; failures=$((failures + 1))
 fi
 
-echo "$((10 - failures)) passed, $failures failed"
+expect_error "bad --pin" 105 "--pin: sometimes not in {auto,on,off}" "$vimd" --pin sometimes check "$case_dir/run.toml"
+
+echo "$((11 - failures)) passed, $failures failed"
 [[ $failures -eq 0 ]]

@@ -18,6 +18,8 @@ phase_done "sanitizer build (build-sanitize/)"
 # Tests run side by side, one per core. Each may use two OpenMP threads, so threads that wait sleep
 # instead of spinning (spinning threads of one test would starve the other's).
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE}
+# Nor are they pinned: vimd's --pin auto would put every test's threads on the same CPUs.
+export OMP_PROC_BIND=${OMP_PROC_BIND:-false}
 jobs=$(nproc)
 status=0
 (cd "$root/build" && OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} ctest -j"$jobs" --output-on-failure --timeout 900 "$@") || status=$?

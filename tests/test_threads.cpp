@@ -1,12 +1,17 @@
 // Thread-count agreement: energies, forces and Hessian–vector products with 1 and 2 OpenMP
 // threads agree to 1e-12 relative for every LJ modifier and Coulomb kind, and the neighbour list
-// itself does not depend on the thread count.
+// itself does not depend on the thread count. Pinned threads stay on their CPUs.
 #include <gtest/gtest.h>
 #include <omp.h>
+#include <pthread.h>
+#include <sched.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <random>
 
 #include "engine/neighbor_list.hpp"
+#include "engine/thread_pinning.hpp"
 #include "forcefields/dihedral_term.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
@@ -167,6 +172,76 @@ TEST(ThreadAgreementList, ThreadChunksCoverEveryHalfOnceInEvenShares) {
       EXPECT_EQ(next, n_halves);
     }
   }
+}
+
+// Each thread's CPU set, as the thread sees it, in a parallel region of `threads` threads.
+std::vector<std::vector<int>> thread_cpu_sets(int threads) {
+  std::vector<std::vector<int>> sets(threads);
+#pragma omp parallel num_threads(threads)
+  {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    pthread_getaffinity_np(pthread_self(), sizeof set, &set);
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+      if (CPU_ISSET(cpu, &set)) sets[omp_get_thread_num()].push_back(cpu);
+  }
+  return sets;
+}
+
+// Clears the OpenMP affinity variables (tests/run.sh sets one) for the test's lifetime.
+class PinThreads : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (const char* name : kAffinityVariables)
+      if (const char* value = std::getenv(name)) saved_.emplace_back(name, value);
+    for (const char* name : kAffinityVariables) unsetenv(name);
+  }
+  void TearDown() override {
+    for (const auto& [name, value] : saved_) setenv(name.c_str(), value.c_str(), 1);
+  }
+
+ private:
+  static constexpr const char* kAffinityVariables[] = {"OMP_PROC_BIND", "OMP_PLACES", "GOMP_CPU_AFFINITY"};
+  std::vector<std::pair<std::string, std::string>> saved_;
+};
+
+TEST_F(PinThreads, PinnedThreadsKeepTheirCpusInLaterParallelRegions) {
+  const std::vector<int> order = pinning_order();
+  ASSERT_FALSE(order.empty());
+  std::vector<int> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end()) << "a CPU twice in the pinning order";
+  const int threads = std::min<int>(2, order.size());
+  omp_set_num_threads(threads);
+  const ThreadPinning pinning = pin_threads(PinMode::on, threads);
+  ASSERT_EQ(pinning.cpus.size(), static_cast<std::size_t>(threads)) << pinning.description;
+  // A region with fewer threads in between must not move the pool's threads.
+#pragma omp parallel num_threads(1)
+  { EXPECT_EQ(omp_get_thread_num(), 0); }
+  for (int round = 0; round < 3; ++round) {
+    const auto sets = thread_cpu_sets(threads);
+    for (int t = 0; t < threads; ++t) EXPECT_EQ(sets[t], std::vector<int>{pinning.cpus[t]}) << "thread " << t;
+  }
+}
+
+TEST_F(PinThreads, LeftAloneWhenOffOverbookedOrPlacedByTheEnvironment) {
+  const int allowed = static_cast<int>(pinning_order().size());
+  const std::vector<std::vector<int>> before = thread_cpu_sets(1);
+  EXPECT_TRUE(pin_threads(PinMode::off, 1).cpus.empty());
+  const ThreadPinning overbooked = pin_threads(PinMode::on, allowed + 1);
+  EXPECT_TRUE(overbooked.cpus.empty());
+  EXPECT_NE(overbooked.description.find("more threads than CPUs"), std::string::npos) << overbooked.description;
+  if (allowed > 1) {  // auto pins only when the threads use every CPU
+    const ThreadPinning fewer = pin_threads(PinMode::automatic, 1);
+    EXPECT_TRUE(fewer.cpus.empty()) << fewer.description;
+  }
+  setenv("OMP_PLACES", "cores", 1);
+  const ThreadPinning placed = pin_threads(PinMode::on, 1);
+  unsetenv("OMP_PLACES");
+  EXPECT_TRUE(placed.cpus.empty());
+  EXPECT_NE(placed.description.find("OMP_PLACES"), std::string::npos) << placed.description;
+  EXPECT_EQ(thread_cpu_sets(1), before);
+  EXPECT_THROW(parse_pin_mode("yes"), std::invalid_argument);
 }
 
 }  // namespace
