@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "engine/atom_kernels.hpp"
 #include "engine/errors.hpp"
 
 namespace vimd {
@@ -110,17 +111,12 @@ double skin_fitting_box(const Box& box, double cutoff, double skin) {
 
 double max_displacement(const Coords& a, const Coords& b) {
   if (a.cols() != b.cols()) return INFINITY;
-  const double* now = a.data();
-  const double* then = b.data();
-  const Eigen::Index n = a.cols();
-  double max_d2 = 0;
-#pragma omp parallel for simd schedule(static) reduction(max : max_d2) if (n >= kParallelMinAtoms)
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double dx = now[3 * i] - then[3 * i], dy = now[3 * i + 1] - then[3 * i + 1],
-                 dz = now[3 * i + 2] - then[3 * i + 2];
-    max_d2 = std::max(max_d2, dx * dx + dy * dy + dz * dz);
-  }
-  return std::sqrt(max_d2);
+  const MaxSquaredDisplacementKernel kernel = simd::max_squared_displacement_kernel();
+  std::vector<double> largest(omp_get_max_threads(), 0.0);
+  for_atom_shares(static_cast<int>(a.cols()), [&](int first, int count) {
+    largest[omp_get_thread_num()] = kernel(count, a.data() + 3 * first, b.data() + 3 * first);
+  });
+  return std::sqrt(*std::max_element(largest.begin(), largest.end()));
 }
 
 double NeighborList::update(const Coords& q, double allowed) {

@@ -1,8 +1,11 @@
 #include "engine/simulation.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <type_traits>
 
+#include "engine/atom_kernels.hpp"
 #include "engine/errors.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
@@ -77,13 +80,16 @@ void Simulation::check_sane(const State& state, State* copy) const {
   }
   // A parallel look first (copying as it reads); the serial pass below, which names the atoms,
   // runs only on a find.
-  bool any_bad = false;
-#pragma omp parallel for schedule(static) reduction(|| : any_bad) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) {
-    any_bad = any_bad || bad(state.q, i, kAbsurdPosition) || bad(state.v, i, kAbsurdVelocity) ||
-              bad(state.f, i, kAbsurdForce);
-    if (copy) copy->q.col(i) = state.q.col(i), copy->v.col(i) = state.v.col(i);
-  }
+  std::atomic<bool> any_bad = false;
+  const WithinNormKernel within = simd::within_norm_kernel();
+  for_atom_shares(n, [&](int first, int count) {
+    const int c = 3 * first;
+    // Every call runs: the copies must be whole.
+    const bool q_ok = within(count, state.q.data() + c, kAbsurdPosition, copy ? copy->q.data() + c : nullptr);
+    const bool v_ok = within(count, state.v.data() + c, kAbsurdVelocity, copy ? copy->v.data() + c : nullptr);
+    const bool f_ok = within(count, state.f.data() + c, kAbsurdForce, nullptr);
+    if (!(q_ok && v_ok && f_ok)) any_bad.store(true, std::memory_order_relaxed);
+  });
   for (int i = 0; any_bad && i < n; ++i) {
     const char* what = bad(state.q, i, kAbsurdPosition)   ? "position"
                        : bad(state.v, i, kAbsurdVelocity) ? "velocity"

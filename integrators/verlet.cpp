@@ -6,44 +6,27 @@
 #include <string>
 #include <utility>
 
+#include "engine/atom_kernels.hpp"
 #include "engine/errors.hpp"
 #include "integrators/coords_ops.hpp"
 
 namespace vimd {
 
-// Flat loops over the 3n components with unaliased pointers: the compiler keeps them in registers
-// and vectorises (through Eigen's columns it reloaded them for every atom).
 void kick(const Eigen::VectorXd& inverse_mass, const Coords& f, double h, Coords& v) {
-  const int n = static_cast<int>(v.cols());
-  const double* __restrict w = inverse_mass.data();
-  const double* __restrict fp = f.data();
-  double* __restrict vp = v.data();
-#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) {
-    const double s = h * w[i];
-    for (int k = 0; k < 3; ++k) vp[3 * i + k] += s * fp[3 * i + k];
-  }
+  const KickKernel kernel = simd::kick_kernel();
+  for_atom_shares(static_cast<int>(v.cols()), [&](int first, int count) {
+    kernel(count, inverse_mass.data() + first, h, f.data() + 3 * first, v.data() + 3 * first);
+  });
 }
 
 void kick_drift(const Eigen::VectorXd& inverse_mass, const Coords& f, double h_kick, double h_drift, Coords& v,
                 Coords& q, Coords* q_before) {
-  const int n = static_cast<int>(v.cols());
-  if (q_before) q_before->resize(3, n);
-  const double* __restrict w = inverse_mass.data();
-  const double* __restrict fp = f.data();
-  double* __restrict vp = v.data();
-  double* __restrict qp = q.data();
-  double* __restrict before = q_before ? q_before->data() : nullptr;
-#pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
-  for (int i = 0; i < n; ++i) {
-    const double s = h_kick * w[i];
-    for (int k = 0; k < 3; ++k) {
-      const int c = 3 * i + k;
-      vp[c] += s * fp[c];
-      if (before) before[c] = qp[c];
-      qp[c] += h_drift * vp[c];
-    }
-  }
+  if (q_before) q_before->resize(3, v.cols());
+  const KickDriftKernel kernel = simd::kick_drift_kernel();
+  for_atom_shares(static_cast<int>(v.cols()), [&](int first, int count) {
+    kernel(count, inverse_mass.data() + first, h_kick, h_drift, f.data() + 3 * first, v.data() + 3 * first,
+           q.data() + 3 * first, q_before ? q_before->data() + 3 * first : nullptr);
+  });
 }
 
 void evaluate_forces(Problem& problem, State& state, Forces& scratch, bool energies) {

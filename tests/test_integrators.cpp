@@ -6,10 +6,12 @@
 #include <cmath>
 #include <random>
 
+#include "engine/atom_kernels.hpp"
 #include "engine/errors.hpp"
 #include "engine/gromacs/gro.hpp"
 #include "engine/start_state.hpp"
 #include "engine/gromacs/topology.hpp"
+#include "forcefields/nonbonded_kernels.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/composition.hpp"
 #include "integrators/rattle.hpp"
@@ -630,6 +632,61 @@ TEST(Shake, AbsurdTimeStepIsAConvergenceError) {
   Shake shake(config("shake", 0.05));
   s->start(shake);
   EXPECT_THROW(for (int n = 0; n < 20; ++n) shake.step(*s->problem, s->state), ConvergenceError);
+}
+
+// The per-atom passes on every SIMD target give the bits of plain loops, for a count of atoms that
+// leaves a partial vector on every width.
+TEST(AtomKernels, EveryTargetGivesTheBitsOfPlainLoops) {
+  constexpr int n = 37;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-2, 2);
+  auto random = [&](int size) {
+    std::vector<double> x(size);
+    for (double& e : x) e = u(rng);
+    return x;
+  };
+  const std::vector<double> w = random(n), f = random(3 * n), v0 = random(3 * n), q0 = random(3 * n);
+  const double h = 0.002, hd = 0.004;
+  std::vector<double> v_kick = v0, v_ref = v0, q_ref = q0, before_ref(3 * n);
+  double largest = 0;
+  for (int i = 0; i < n; ++i) {
+    const double s = h * w[i];
+    for (int k = 0; k < 3; ++k) {
+      const int c = 3 * i + k;
+      v_kick[c] += s * f[c];
+      v_ref[c] += s * f[c];
+      before_ref[c] = q_ref[c];
+      q_ref[c] += hd * v_ref[c];
+    }
+    const double dx = q_ref[3 * i] - q0[3 * i], dy = q_ref[3 * i + 1] - q0[3 * i + 1],
+                 dz = q_ref[3 * i + 2] - q0[3 * i + 2];
+    largest = std::max(largest, dx * dx + dy * dy + dz * dz);
+  }
+  for (const std::string& target : simd::available_targets()) {
+    SCOPED_TRACE(target);
+    simd::use_target(target);
+    std::vector<double> v = v0;
+    simd::kick_kernel()(n, w.data(), h, f.data(), v.data());
+    EXPECT_EQ(v, v_kick);
+    std::vector<double> q = q0, before(3 * n);
+    v = v0;
+    simd::kick_drift_kernel()(n, w.data(), h, hd, f.data(), v.data(), q.data(), before.data());
+    EXPECT_EQ(v, v_ref);
+    EXPECT_EQ(q, q_ref);
+    EXPECT_EQ(before, before_ref);
+    EXPECT_EQ(simd::max_squared_displacement_kernel()(n, q.data(), q0.data()), largest);
+    const WithinNormKernel within = simd::within_norm_kernel();
+    std::vector<double> copy(3 * n);
+    EXPECT_TRUE(within(n, f.data(), 3.5, copy.data()));  // |f_i| ≤ 2√3
+    EXPECT_EQ(copy, f);
+    EXPECT_FALSE(within(n, f.data(), 0.5, nullptr));
+    for (int atom : {0, n - 1}) {  // in a full vector, and in the partial one
+      std::vector<double> with_nan = f;
+      with_nan[3 * atom + 1] = std::nan("");
+      EXPECT_FALSE(within(n, with_nan.data(), 3.5, nullptr)) << "NaN at atom " << atom;
+    }
+  }
+  simd::use_target("");
 }
 
 }  // namespace
