@@ -112,7 +112,7 @@ struct Layout {
   // StepVelocity for the atoms of cluster c.
   void set_step_velocity(int c, const Coords& q_ref, const Coords& q, const StepVelocity& velocity) const {
     for (int k = atom_begin[c]; k < atom_begin[c + 1]; ++k)
-      velocity.v.col(atoms[k]) = (q.col(atoms[k]) - q_ref.col(atoms[k])) / velocity.h;
+      velocity.v.col(atoms[k]) = (q.col(atoms[k]) - q_ref.col(atoms[k])) * (1 / velocity.h);
   }
   // Entry factor of S = G W Gᵀ for positions p, r (p == r gives w_i + w_j).
   double coefficient(int p, int r, const double* w) const {

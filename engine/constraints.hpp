@@ -18,9 +18,10 @@ struct ClusterFactors;
 struct Workspace;
 }  // namespace constraint_internals
 
-// The half-step velocity a position stage leaves, for solve_positions: v_i = (q_i − q_ref,i)/h for
-// every constrained atom i, written as its cluster is solved (the other atoms keep theirs: the
-// drift q = q_ref + h v already carried them).
+// The half-step velocity a position stage leaves, for solve_positions: v_i = (q_i − q_ref,i)·(1/h)
+// for every constrained atom i, written as its cluster is solved (the other atoms keep theirs: the
+// drift q = q_ref + h v already carried them). A product, not a quotient: SETTLE's nine divisions
+// a molecule cost as much as its rotation.
 struct StepVelocity {
   Coords& v;
   double h;

@@ -111,7 +111,7 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
   const ConsecutiveLoad load = simd::consecutive_load();
   const ConsecutiveStore store = simd::consecutive_store();
   const SettleParams params{tolerance, {L.box.length[0], L.box.length[1], L.box.length[2]}, velocity != nullptr,
-                            velocity ? velocity->h : 0};
+                            velocity ? 1 / velocity->h : 0};
   const int n_triangles = static_cast<int>(L.triangle_clusters.size());
   const int n_batches = (n_triangles + kSettleBatch - 1) / kSettleBatch;
   // Static: each thread writes the molecules whose atoms the integrator's per-atom loops (static

@@ -118,9 +118,9 @@ void settle_batch(int count, const SettleParams& params, const double* in, doubl
       simd_store(out + (kNewAx + 3 * a + 1) * kSettleBatch + k, result[a]->y);
       simd_store(out + (kNewAx + 3 * a + 2) * kSettleBatch + k, result[a]->z);
       if (params.step_velocities) {
-        const V3 v = V3{(result[a]->x - field(ref_field[a], k)) / params.step_h,
-                        (result[a]->y - field(ref_field[a] + 1, k)) / params.step_h,
-                        (result[a]->z - field(ref_field[a] + 2, k)) / params.step_h};
+        const V3 v = V3{(result[a]->x - field(ref_field[a], k)) * params.inverse_step_h,
+                        (result[a]->y - field(ref_field[a] + 1, k)) * params.inverse_step_h,
+                        (result[a]->z - field(ref_field[a] + 2, k)) * params.inverse_step_h};
         simd_store(out + (kVelAx + 3 * a) * kSettleBatch + k, v.x);
         simd_store(out + (kVelAx + 3 * a + 1) * kSettleBatch + k, v.y);
         simd_store(out + (kVelAx + 3 * a + 2) * kSettleBatch + k, v.z);

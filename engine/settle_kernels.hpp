@@ -13,8 +13,9 @@ enum SettleIn { kRefAx, kRefAy, kRefAz, kRefBx, kRefBy, kRefBz, kRefCx, kRefCy, 
                 kWeightA, kWeightB, kWeightC, kSide, kBase, kSettleInFields };
 // Out: what became of each molecule (SettleStatus); the new positions of apex, h1 and h2 (stored
 // coordinates, same images as q: q itself where already satisfied); where SettleParams asks for
-// them, their step velocities (new − q_ref) / step_h; the largest relative deviation of the three
-// sides and which side it is (0: apex–h1, 1: apex–h2, 2: base; the first of equals, 0 if all are 0).
+// them, their step velocities (new − q_ref) · inverse_step_h; the largest relative deviation of the
+// three sides and which side it is (0: apex–h1, 1: apex–h2, 2: base; the first of equals, 0 if all
+// are 0).
 // Positions, velocities and deviations are meaningful only where the status is not `newton`.
 enum SettleOut { kNewAx, kNewAy, kNewAz, kNewBx, kNewBy, kNewBz, kNewCx, kNewCy, kNewCz,
                  kVelAx, kVelAy, kVelAz, kVelBx, kVelBy, kVelBz, kVelCx, kVelCy, kVelCz,
@@ -27,7 +28,7 @@ struct SettleParams {
   double tolerance;
   double box[3];  // periodic lengths, 0 where not periodic
   bool step_velocities = false;
-  double step_h = 0;  // StepVelocity::h (negative in some composition sub-steps)
+  double inverse_step_h = 0;  // 1 / StepVelocity::h (h is negative in some composition sub-steps)
 };
 using SettleKernel = void (*)(int count, const SettleParams& params, const double* in, double* out);
 

@@ -357,7 +357,7 @@ TEST(Constraints, StepVelocityIsTheConstrainedDisplacementOverTheStep) {
   EXPECT_LE(constraints.max_relative_deviation(q), 1e-12);
   for (int i = 0; i < n; ++i) {
     if (constrained[i])
-      EXPECT_EQ(v.col(i), Vec3((q.col(i) - q_ref.col(i)) / h)) << "atom " << i;
+      EXPECT_EQ(v.col(i), Vec3((q.col(i) - q_ref.col(i)) * (1 / h))) << "atom " << i;
     else
       EXPECT_EQ(v.col(i), v_start.col(i)) << "atom " << i;
   }
