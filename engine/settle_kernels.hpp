@@ -4,8 +4,9 @@
 // chooses for all kernels).
 namespace vimd {
 
-// Structure of arrays: field f of molecule k at [f * kSettleBatch + k].
-inline constexpr int kSettleBatch = 64;
+// Structure of arrays: field f of molecule k at [f * kSettleBatch + k]. The threads take whole
+// batches: small ones keep their shares near equal on small boxes.
+inline constexpr int kSettleBatch = 32;
 // In, per molecule: the reference positions (q_ref) and the unconstrained positions (q) of the apex,
 // h1 and h2 as they are stored (not imaged), the three atoms' weights, and the side and base lengths.
 enum SettleIn { kRefAx, kRefAy, kRefAz, kRefBx, kRefBy, kRefBz, kRefCx, kRefCy, kRefCz,

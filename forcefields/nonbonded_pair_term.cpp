@@ -97,8 +97,14 @@ std::vector<char> atoms_with_lj(const System& system) {
 // Small lists run on one thread: starting a team would cost more than the pairs.
 constexpr std::size_t kParallelEntries = 2048;
 
-// Excluded pairs go in fixed blocks (independent of the thread count, like the per-half energies).
-constexpr int kExcludedBlock = 1024;
+// Excluded pairs go in fixed blocks (independent of the thread count, like the per-half energies),
+// each thread a contiguous run of them: small blocks, so that the runs are near equal.
+constexpr int kExcludedBlock = 256;
+
+template <class F>
+void for_thread_blocks(int n_blocks, int t, int nt, F&& f) {
+  for (int b = n_blocks * t / nt; b < n_blocks * (t + 1) / nt; ++b) f(b);
+}
 
 }  // namespace
 
@@ -360,12 +366,12 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
         for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
           pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
         });
-        for (int b = t; b < n_blocks; b += nt) {
+        for_thread_blocks(n_blocks, t, nt, [&](int b) {
           double energies_of_block[kPairEnergies] = {};
           excluded_kernel(view, excluded, cutoff2_, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock),
                           fx, fy, fz, energies_of_block);
           for (int k = 0; k < kPairEnergies; ++k) block[k][b] += energies_of_block[k];
-        }
+        });
       },
       f);
   if (energies.empty()) return;
@@ -436,11 +442,12 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
           if (find_masks) mask_kernel(view, h0, h1, w.list_masks.data());
           pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
         });
-        for (int b = t; b < n_blocks; b += nt)
+        for_thread_blocks(n_blocks, t, nt, [&](int b) {
           for_each_excluded_pair_form(view.forms, [&](const auto& form) {
             excluded_pair_hessian(form, view, excluded, cutoff2_, slots.ux.data(), slots.uy.data(), slots.uz.data(),
                                   b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock), ox, oy, oz);
           });
+        });
       },
       out);
 }
