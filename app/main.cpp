@@ -346,7 +346,8 @@ int main(int argc, char** argv) {
   keys->add_flag("--markdown", markdown, "as docs/run-file.md");
   CLI11_PARSE(app, argc, argv);
   if (threads > 0) omp_set_num_threads(threads);
-  run_options.pinning = pin_threads(parse_pin_mode(pin), omp_get_max_threads()).description;
+  // `keys` starts no threads, so it has none to pin.
+  if (!keys->parsed()) run_options.pinning = pin_threads(parse_pin_mode(pin), omp_get_max_threads()).description;
   // Past a file-size limit, writes should fail with EFBIG (reported as an error), not kill vimd.
   std::signal(SIGXFSZ, SIG_IGN);
 

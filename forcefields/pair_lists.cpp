@@ -26,8 +26,9 @@ double max_abs_coordinate(const Coords& q) {
 constexpr double kStepReachMargin = 1.3;
 constexpr double kMinStepSkin = 0.005;  // nm
 
-// Lists with fewer entries are narrowed on one thread: starting a team would cost more. (The
-// displacements before a pruning, ~100 ns a cluster, go parallel from kParallelMinAtoms.)
+// Lists with fewer entries are narrowed on one thread: starting a team would cost more. The
+// displacements before a pruning go parallel as per-atom loops do: run on one thread, they kept
+// the others waiting.
 constexpr std::size_t kParallelEntries = 2048;
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
