@@ -215,7 +215,7 @@ std::vector<ConfigKey> make_keys() {
                "number, nm",
                {},
                kMustMatch,
-               "buffer of the searched list it is pruned from (unset: neighbor_skin + 0.4, as the box allows)",
+               "buffer of the searched list it is pruned from (unset: neighbor_skin + 0.6, as the box allows)",
                [](const KeyInput& in, RunConfig& c) { c.forcefield.neighbor_search_skin = in.number(); },
                [](const RunConfig& c) {
                  return c.forcefield.neighbor_search_skin ? exact_text(*c.forcefield.neighbor_search_skin)

@@ -57,7 +57,7 @@ void excluded_pair_hessian(const Form& form, const PairViewOf<Real>& d, const Ne
 }
 
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
-constexpr double kAutoSearchSkinExtra = 0.4;  // nm
+constexpr double kAutoSearchSkinExtra = 0.6;  // nm
 
 // The pair list's buffer: as configured, cut to what the box allows (engine/input.cpp warns).
 double skin_for(const System& system, const ForceFieldConfig& config) {

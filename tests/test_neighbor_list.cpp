@@ -354,7 +354,8 @@ TEST(NeighborList, EntryKeepsTheLargestClusterAndShift) {
 // (cut-off + search skin within half the box), and pruning only where that margin is at least the
 // skin, so that searching waits longer than pruning does.
 TEST(NeighborList, AutomaticSearchSkinFitsTheBox) {
-  for (const auto& [box_length, expected] : std::vector<std::pair<double, double>>{{4.0, 0.5}, {2.5, 0.35}, {2.0, 0.1}}) {
+  const std::vector<std::pair<double, double>> boxes{{4.0, 0.7}, {3.0, 0.6}, {2.5, 0.35}, {2.0, 0.1}};
+  for (const auto& [box_length, expected] : boxes) {
     auto [system, q] = testing::water_like_system(100, Vec3::Constant(box_length), 3);
     const NonbondedPairTerm term(system, testing::pair_config("potential-shift", "reaction-field"));
     EXPECT_NEAR(term.search_skin(), expected, 1e-12) << "box " << box_length;
