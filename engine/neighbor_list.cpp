@@ -352,7 +352,7 @@ void NeighborList::search_pairs() {
   offset.assign(n_halves, 0);
   // Kept: no regrowing at every search.
   std::vector<std::vector<Entry>>& per_thread = search_buffers_;
-  std::vector<std::vector<float>>& per_thread_nearest = search_nearest_buffers_;
+  std::vector<std::vector<NearestDistance>>& per_thread_nearest = search_nearest_buffers_;
   per_thread.resize(omp_get_max_threads());
   per_thread_nearest.resize(per_thread.size());
   const ClusterPairKernel kernel = simd::cluster_pair_kernel();
@@ -372,11 +372,11 @@ void NeighborList::search_pairs() {
   {
     const int t = omp_get_thread_num();
     std::vector<Entry>& out = per_thread[t];
-    std::vector<float>& out_nearest = per_thread_nearest[t];
+    std::vector<NearestDistance>& out_nearest = per_thread_nearest[t];
     out.clear();
     out_nearest.clear();
     std::vector<Entry> found[2];
-    std::vector<float> found_nearest[2];
+    std::vector<NearestDistance> found_nearest[2];
     std::uint64_t near[kBoxBatch];
     float nearest[kBoxBatch][2] = {};  // finite from the start: the kernel converts all of it
 #pragma omp for schedule(dynamic, 8)
@@ -426,7 +426,7 @@ void NeighborList::search_pairs() {
                 for (int hh = 0; hh < 2; ++hh)
                   if (masks[hh] != 0) {
                     found[hh].push_back(Entry::make(b0 + c, si, masks[hh]));
-                    found_nearest[hh].push_back(nearest[c][hh]);
+                    found_nearest[hh].push_back(encode_nearest(nearest[c][hh]));
                   }
               }
             }
@@ -447,7 +447,16 @@ void NeighborList::search_pairs() {
   std::partial_sum(half_start_.begin(), half_start_.end(), half_start_.begin());
 }
 
-void NeighborList::point_to_halves(std::vector<const Entry*>& entries, std::vector<const float*>& nearest) const {
+NeighborList::NearestDistance NeighborList::encode_nearest(float distance) {
+  constexpr float kLargest = std::numeric_limits<NearestDistance>::max();
+  // The product is exact (a power of two), and so is the floor: the code times the unit is at most
+  // the distance. !(x > 0) also sends a NaN to 0.
+  const float units = distance * (1 / kNearestUnit);
+  return static_cast<NearestDistance>(!(units > 0) ? 0.0f : std::min(std::floor(units), kLargest));
+}
+
+void NeighborList::point_to_halves(std::vector<const Entry*>& entries,
+                                   std::vector<const NearestDistance*>& nearest) const {
   const std::size_t n_halves = half_owner_.size();
   entries.resize(n_halves);
   nearest.resize(n_halves);
@@ -462,7 +471,7 @@ const std::vector<NeighborList::Entry>& NeighborList::entries() const {
   return entries_;
 }
 
-const std::vector<float>& NeighborList::nearest() const {
+const std::vector<NeighborList::NearestDistance>& NeighborList::nearest() const {
   assemble();
   return nearest_;
 }

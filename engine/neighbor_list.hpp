@@ -109,16 +109,23 @@ class NeighborList {
   template <class Real>
   void pack_vectors(const Coords& u, Real* x, Real* y, Real* z) const;
 
+  // An entry's nearest distance: at the build, no two of its atoms were closer than this many
+  // kNearestUnit (rounded down; 2 nm and beyond count as 2 nm, still a lower bound). Half the bytes of
+  // a float, for the largest array the search keeps; the unit, a power of two, decodes exactly.
+  using NearestDistance = std::uint16_t;
+  static constexpr float kNearestUnit = 1.0f / 32768;  // nm
+  static NearestDistance encode_nearest(float distance);
+
   // The entries of i-half h, by shift, then by j-cluster, are numbered half_start()[h] ..
   // half_start()[h + 1] − 1 (per-entry data such as masks go by these numbers). They stay where the
-  // search's threads wrote them: point_to_halves gives where each half's entries begin, and its
-  // nearest distances (at the build, no two of the entry's atoms were closer than this, nm, rounded
-  // down); valid until the next build, or a copy of the list. entries() and nearest() put them in
-  // one array in that order, on first use after a build (a pruning does without: it reads the halves).
+  // search's threads wrote them: point_to_halves gives where each half's entries and their nearest
+  // distances begin; valid until the next build, or a copy of the list. entries() and nearest() put
+  // them in one array in that order, on first use after a build (a pruning does without: it reads
+  // the halves).
   const std::vector<int>& half_start() const { return half_start_; }
-  void point_to_halves(std::vector<const Entry*>& entries, std::vector<const float*>& nearest) const;
+  void point_to_halves(std::vector<const Entry*>& entries, std::vector<const NearestDistance*>& nearest) const;
   const std::vector<Entry>& entries() const;
-  const std::vector<float>& nearest() const;
+  const std::vector<NearestDistance>& nearest() const;
   const std::vector<Vec3>& shift_vectors() const { return shift_vectors_; }
   const std::vector<ExcludedPair>& excluded_pairs() const { return excluded_pairs_; }
 
@@ -181,12 +188,12 @@ class NeighborList {
   // Per thread: the entries and nearest distances of the halves it searched (kept from search to
   // search: no regrowing); half h's are at half_offset_[h] of thread half_owner_[h]'s.
   std::vector<std::vector<Entry>> search_buffers_;
-  std::vector<std::vector<float>> search_nearest_buffers_;
+  std::vector<std::vector<NearestDistance>> search_nearest_buffers_;
   std::vector<int> half_owner_, half_offset_;
   void assemble() const;
   mutable long assembled_build_ = -1;
   mutable std::vector<Entry> entries_;
-  mutable std::vector<float> nearest_;
+  mutable std::vector<NearestDistance> nearest_;
   std::vector<ExcludedPair> excluded_pairs_;
 };
 

@@ -511,6 +511,8 @@ HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, in
   const hn::CappedTag<float, 16> df;
   const hn::Rebind<std::int32_t, decltype(df)> di;
   const hn::Rebind<std::uint32_t, decltype(df)> du;
+  const hn::Rebind<NeighborList::NearestDistance, decltype(df)> dn;
+  const auto unit = hn::Set(df, NeighborList::kNearestUnit);
   const int lanes = static_cast<int>(hn::Lanes(df));
   static_assert(sizeof(NeighborList::Entry) == 2 * sizeof(std::uint32_t), "Entry: two words");
   constexpr int kBlock = 256;
@@ -520,7 +522,7 @@ HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, in
     positions.start(h);
     const int count = d.half_start[h + 1] - d.half_start[h];
     const NeighborList::Entry* entries = entries_of_half(d, h);
-    const float* nearest = d.half_nearest ? d.half_nearest[h] : nullptr;
+    const NeighborList::NearestDistance* nearest = d.half_nearest ? d.half_nearest[h] : nullptr;
     if (!nearest) {
       for (int k = 0; k < count; ++k) keep(h, k, entries[k], entry_inside_bits(d, positions, entries[k], range2));
       half_done(h);
@@ -537,12 +539,13 @@ HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, in
         hn::LoadInterleaved2(du, reinterpret_cast<const std::uint32_t*>(entries + k0 + k), cluster_and_shift, mask);
         const auto j_cluster = hn::BitCast(di, hn::ShiftRight<NeighborList::Entry::kShiftBits>(cluster_and_shift));
         const auto skip = hn::Add(hn::Set(df, half_skip), hn::GatherIndex(df, d.cluster_moved, j_cluster));
-        const auto near = hn::Lt(hn::LoadU(df, nearest + k0 + k), skip);
+        const auto units = hn::BitCast(di, hn::PromoteTo(du, hn::LoadU(dn, nearest + k0 + k)));
+        const auto near = hn::Lt(hn::Mul(hn::ConvertTo(df, units), unit), skip);
         m += static_cast<int>(hn::CompressStore(hn::Iota(di, k0 + k), hn::RebindMask(di, near), di, look + m));
       }
       for (; k < n; ++k) {
         look[m] = k0 + k;
-        m += nearest[k0 + k] < half_skip + d.cluster_moved[entries[k0 + k].j_cluster()];
+        m += nearest[k0 + k] * NeighborList::kNearestUnit < half_skip + d.cluster_moved[entries[k0 + k].j_cluster()];
       }
       for (int t = 0; t < m; ++t) {
         const NeighborList::Entry& entry = entries[look[t]];

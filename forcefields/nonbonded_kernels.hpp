@@ -25,9 +25,10 @@ struct PairPositionsOf {
   double cutoff2;
   // Where given (a searched list, NeighborList::point_to_halves; a list narrowed from one, kept in
   // each thread's part): half h's entries begin at half_entries[h], not entries + half_start[h].
-  // Only a searched list has nearest distances; they begin at half_nearest[h].
+  // Only a searched list has nearest distances (NeighborList::NearestDistance); they begin at
+  // half_nearest[h].
   const NeighborList::Entry* const* half_entries = nullptr;
-  const float* const* half_nearest = nullptr;
+  const NeighborList::NearestDistance* const* half_nearest = nullptr;
   // With half_nearest: an entry of half h and j-cluster c whose nearest distance is at least
   // half_skip[h] + cluster_moved[c] (nm, rounded up, so that their float sum is too) is known to
   // have no pair inside the range, unseen.

@@ -110,7 +110,8 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
                                      cluster_moved_.size() != static_cast<std::size_t>(list_.n_clusters())))
     throw std::logic_error("PairLists::narrow: skipping by distance needs each half's and cluster's displacement");
   const NeighborList::Entry* const* half_entries = from.half_entries.empty() ? nullptr : from.half_entries.data();
-  const float* const* half_nearest = from.half_nearest.empty() ? nullptr : from.half_nearest.data();
+  const NeighborList::NearestDistance* const* half_nearest =
+      from.half_nearest.empty() ? nullptr : from.half_nearest.data();
   PairPositionsOf<double> view{x_.data(),           y_.data(),     z_.data(),         from.entries.data(),
                                from.half_start.data(), list_.shift_vectors().data(), range * range,
                                half_entries,          half_nearest,  half_skip_.data(), cluster_moved_.data()};

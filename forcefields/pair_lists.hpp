@@ -64,7 +64,7 @@ struct PairListView {
   // A list kept in parts (entries then empty): per half, where its entries begin. A searched list
   // as the search left it (NeighborList::point_to_halves) also has their nearest distances.
   std::span<const NeighborList::Entry* const> half_entries = {};
-  std::span<const float* const> half_nearest = {};
+  std::span<const NeighborList::NearestDistance* const> half_nearest = {};
 
   const NeighborList::Entry* entries_of(int h) const {
     return half_entries.empty() ? entries.data() + half_start[h] : half_entries[h];
@@ -160,7 +160,7 @@ class PairLists {
   long prunes_ = 0, step_prunes_ = 0, changes_ = 0;
   double prune_seconds_ = 0;
   std::vector<const NeighborList::Entry*> half_entries_;  // searched_halves()'s
-  std::vector<const float*> half_nearest_;
+  std::vector<const NeighborList::NearestDistance*> half_nearest_;
   // For a pruning: per half, the range plus the largest displacement of its atoms since the
   // search; per cluster, that displacement (nm, rounded up: PairPositionsOf).
   std::vector<float> half_skip_, cluster_moved_;

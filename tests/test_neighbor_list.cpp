@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <optional>
 #include <random>
@@ -679,6 +681,24 @@ TEST(NeighborList, SmallPartlyPeriodicAndNonPeriodicBoxes) {
 // The search tests distances in single precision, widened by their rounding: every pair in range
 // listed, none far beyond it, and each entry's `nearest` a lower bound, close to the true one; on
 // every SIMD target.
+// The stored nearest distance never exceeds the distance (a pruning skips by it), loses at most one
+// unit below 2 nm, and holds everything from 2 nm on, and anything not a positive number, safely low.
+TEST(NeighborList, NearestDistanceCodeIsALowerBound) {
+  const float unit = NeighborList::kNearestUnit;
+  for (float d = 0; d < 2.1f; d = std::nextafter(d + 0.000731f, 3.0f)) {
+    const float decoded = NeighborList::encode_nearest(d) * unit;
+    ASSERT_LE(decoded, d) << d;
+    if (d < 2.0f - unit) {
+      ASSERT_GT(decoded, d - unit) << d;
+    }
+  }
+  EXPECT_EQ(NeighborList::encode_nearest(2.0f - unit), 65535);
+  EXPECT_EQ(NeighborList::encode_nearest(1e30f), 65535);
+  EXPECT_EQ(NeighborList::encode_nearest(std::numeric_limits<float>::infinity()), 65535);
+  EXPECT_EQ(NeighborList::encode_nearest(-1e-5f), 0);
+  EXPECT_EQ(NeighborList::encode_nearest(std::numeric_limits<float>::quiet_NaN()), 0);
+}
+
 TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
   const auto targets = simd::available_targets();
   const Vec3 boxes[] = {Vec3(2.4, 2.5, 2.6), Vec3(1.85, 1.85, 1.85), Vec3(0.0, 0.0, 0.0)};
@@ -706,8 +726,9 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
               nearest = std::min(nearest, (Vec3(x[sa] - x[sb], y[sa] - y[sb], z[sa] - z[sb]) -
                                            list.shift_vectors()[entry.shift()]).norm());
           }
-        ASSERT_LE(list.nearest()[e], nearest);
-        ASSERT_GT(list.nearest()[e], nearest - rounding);
+        const double listed_nearest = list.nearest()[e] * NeighborList::kNearestUnit;
+        ASSERT_LE(listed_nearest, nearest);
+        ASSERT_GT(listed_nearest, nearest - rounding);
         for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
           for (int jj = 0; jj < NeighborList::kClusterSize; ++jj) {
             if (!((entry.mask >> (ii * NeighborList::kClusterSize + jj)) & 1u)) continue;
