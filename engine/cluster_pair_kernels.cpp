@@ -40,7 +40,9 @@ void cluster_pair_near(const float* x, const float* y, const float* z, int a_fir
       const V xj = load_j(x + jb + js), yj = load_j(y + jb + js), zj = load_j(z + jb + js);
 #pragma GCC unroll 8
       for (int r = 0; r < kVectors; ++r) {
-        const V dx = xi[r] - xj, dy = yi[r] - yj, dz = zi[r] - zj;
+        // x_j − x_i: the i positions are the operand x86 can read from memory, where they do not all
+        // fit in registers.
+        const V dx = xj - xi[r], dy = yj - yi[r], dz = zj - zi[r];
         const V r2 = dx * dx + dy * dy + dz * dz;
         bits |= static_cast<std::uint64_t>(bits_from_mask(r2 < range2_v)) << (r * kRows * kCluster + js);
         closest[r * kRows / kHalf] = simd_min(closest[r * kRows / kHalf], r2);

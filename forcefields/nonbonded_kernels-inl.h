@@ -365,8 +365,10 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ii += kRows) {
           if (listed.bits(ii, js) == 0) continue;
-          const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
-                  dz = hi.positions.z[ii / kRows] - zj;
+          // x_j − x_i, not x_i − x_j: the i positions are then the operand that x86 can read from
+          // memory, where the i rows do not all fit in registers (AVX2's 16).
+          const V dx = xj - hi.positions.x[ii / kRows], dy = yj - hi.positions.y[ii / kRows],
+                  dz = zj - hi.positions.z[ii / kRows];
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = listed.of(ii, js) & (r2 < cutoff2);
           if (kMasks && inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
@@ -377,12 +379,12 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
           Forms::template energy_force<kEnergies>(d, hi.forms, ii, j, p, inside, g, energy);
           g = keep(inside, g);
           const V gx = g * dx, gy = g * dy, gz = g * dz;
-          fxi[ii / kRows] += gx;
-          fyi[ii / kRows] += gy;
-          fzi[ii / kRows] += gz;
-          fxj -= gx;
-          fyj -= gy;
-          fzj -= gz;
+          fxi[ii / kRows] -= gx;
+          fyi[ii / kRows] -= gy;
+          fzi[ii / kRows] -= gz;
+          fxj += gx;
+          fyj += gy;
+          fzj += gz;
         }
         add_j(fx + jb, fxj);
         add_j(fy + jb, fyj);
@@ -443,8 +445,9 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
 #pragma GCC unroll 4  // the i sums are registers only if their index is a constant
         for (int ii = 0; ii < kH; ii += kRows) {
           if (listed.bits(ii, js) == 0) continue;
-          const V dx = hi.positions.x[ii / kRows] - xj, dy = hi.positions.y[ii / kRows] - yj,
-                  dz = hi.positions.z[ii / kRows] - zj;
+          // x_j − x_i and u_j − u_i, as in force_halves.
+          const V dx = xj - hi.positions.x[ii / kRows], dy = yj - hi.positions.y[ii / kRows],
+                  dz = zj - hi.positions.z[ii / kRows];
           const V r2 = dx * dx + dy * dy + dz * dz;
           const Mask inside = listed.of(ii, js);
           const V r2s = simd_max(r2, r2_floor);
@@ -454,16 +457,16 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
           Forms::hessian(d, hi.forms, ii, j, p, a, b);
           a = keep(inside, a);
           b = keep(inside, b);
-          const V dux = broadcast_rows(uxi, ii) - uxj, duy = broadcast_rows(uyi, ii) - uyj,
-                  duz = broadcast_rows(uzi, ii) - uzj;
+          const V dux = uxj - broadcast_rows(uxi, ii), duy = uyj - broadcast_rows(uyi, ii),
+                  duz = uzj - broadcast_rows(uzi, ii);
           const V bp = b * (dx * dux + dy * duy + dz * duz);
           const V hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
-          oxi[ii / kRows] += hx;
-          oyi[ii / kRows] += hy;
-          ozi[ii / kRows] += hz;
-          oxj -= hx;
-          oyj -= hy;
-          ozj -= hz;
+          oxi[ii / kRows] -= hx;
+          oyi[ii / kRows] -= hy;
+          ozi[ii / kRows] -= hz;
+          oxj += hx;
+          oyj += hy;
+          ozj += hz;
         }
         add_j(ox + jb, oxj);
         add_j(oy + jb, oyj);
@@ -492,7 +495,7 @@ HWY_INLINE std::uint32_t entry_inside_bits(const PairPositionsOf<Real>& d, Shift
     // Every lane, listed or not (padding and excluded pairs have finite distances too); the
     // entry's mask then keeps the listed pairs: cheaper than a vector mask per row.
     for (int ii = 0; ii < kH; ii += kRows) {
-      const V dx = positions.x[ii / kRows] - xj, dy = positions.y[ii / kRows] - yj, dz = positions.z[ii / kRows] - zj;
+      const V dx = xj - positions.x[ii / kRows], dy = yj - positions.y[ii / kRows], dz = zj - positions.z[ii / kRows];
       inside_bits |= bits_from_mask(dx * dx + dy * dy + dz * dz < range2) << (ii * kC + js);
     }
   }
