@@ -326,6 +326,17 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Re
 // as in GROMACS.
 constexpr double kPairR2Floor = 3.82e-7;  // nm²
 
+// A pair's term t, computed from x_j − x_i, taken from row i's sums and added to j's.
+template <class V>
+HWY_INLINE void take_pair_term(V& ix, V& iy, V& iz, V& jx, V& jy, V& jz, V tx, V ty, V tz) {
+  ix -= tx;
+  iy -= ty;
+  iz -= tz;
+  jx += tx;
+  jy += ty;
+  jz += tz;
+}
+
 // Forms: a combination of pair forms (Sum, SharedSwitch). Real: the precision of the pair
 // arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched). kMasks: also the inside
@@ -379,12 +390,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
           Forms::template energy_force<kEnergies>(d, hi.forms, ii, j, p, inside, g, energy);
           g = keep(inside, g);
           const V gx = g * dx, gy = g * dy, gz = g * dz;
-          fxi[ii / kRows] -= gx;
-          fyi[ii / kRows] -= gy;
-          fzi[ii / kRows] -= gz;
-          fxj += gx;
-          fyj += gy;
-          fzj += gz;
+          take_pair_term(fxi[ii / kRows], fyi[ii / kRows], fzi[ii / kRows], fxj, fyj, fzj, gx, gy, gz);
         }
         add_j(fx + jb, fxj);
         add_j(fy + jb, fyj);
@@ -461,12 +467,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
                   duz = uzj - broadcast_rows(uzi, ii);
           const V bp = b * (dx * dux + dy * duy + dz * duz);
           const V hx = a * dux + bp * dx, hy = a * duy + bp * dy, hz = a * duz + bp * dz;
-          oxi[ii / kRows] -= hx;
-          oyi[ii / kRows] -= hy;
-          ozi[ii / kRows] -= hz;
-          oxj += hx;
-          oyj += hy;
-          ozj += hz;
+          take_pair_term(oxi[ii / kRows], oyi[ii / kRows], ozi[ii / kRows], oxj, oyj, ozj, hx, hy, hz);
         }
         add_j(ox + jb, oxj);
         add_j(oy + jb, oyj);
