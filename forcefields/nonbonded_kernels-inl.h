@@ -13,6 +13,7 @@
 #endif
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <tuple>
@@ -503,6 +504,35 @@ HWY_INLINE std::uint32_t entry_inside_bits(const PairPositionsOf<Real>& d, Shift
   return inside_bits & entry.mask;
 }
 
+// For each 8-bit lane mask, the lanes it sets in order, 4 bits each (lane 0 in the lowest nibble).
+constexpr std::array<std::uint32_t, 256> kSetLanes = [] {
+  std::array<std::uint32_t, 256> table{};
+  for (unsigned bits = 0; bits < 256; ++bits)
+    for (unsigned lane = 0, n = 0; lane < 8; ++lane)
+      if (bits & (1u << lane)) table[bits] |= lane << (4 * n++);
+  return table;
+}();
+
+// Stores the lanes of `values` that `keep` selects to out, in order; returns how many. Writes a
+// whole vector at out. Highway's CompressStore does this where the target has it as an
+// instruction (AVX-512); its AVX2 version declares its index table as a local constexpr array,
+// which GCC copies to the stack (1 KiB) at every call, so up to 8 lanes take kSetLanes instead.
+template <class D>
+HWY_INLINE int compress_store(D d, hn::Vec<D> values, hn::Mask<D> keep, hn::TFromD<D>* out) {
+  if constexpr (hn::MaxLanes(D()) <= 8 && sizeof(hn::TFromD<D>) == 4) {
+    const hn::RebindToUnsigned<D> du;
+    std::uint8_t byte[8] = {};
+    hn::StoreMaskBits(d, keep, byte);
+    const auto lanes = hn::And(hn::Shr(hn::Set(du, kSetLanes[byte[0]]), hn::ShiftLeft<2>(hn::Iota(du, 0))),
+                               hn::Set(du, 15));
+    hn::StoreU(hn::TableLookupLanes(values, hn::IndicesFromVec(d, hn::BitCast(hn::RebindToSigned<D>(), lanes))), d,
+               out);
+    return static_cast<int>(hwy::PopCount(byte[0]));
+  } else {
+    return static_cast<int>(hn::CompressStore(values, keep, d, out));
+  }
+}
+
 // keep(h, k, entry, bits) for the entries of halves [h0, h1) that may have a listed pair inside the
 // range, in order: k the entry's place in its half, bits those pairs; then half_done(h). Entries
 // that the view's half_skip and cluster_moved put beyond the range are passed over unseen (their
@@ -517,6 +547,7 @@ HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, in
   const hn::Rebind<std::uint32_t, decltype(df)> du;
   const hn::Rebind<NeighborList::NearestDistance, decltype(df)> dn;
   const auto unit = hn::Set(df, NeighborList::kNearestUnit);
+  const auto lane_index = hn::Iota(di, 0);  // not Iota(di, k): its lanes would be stored one by one
   const int lanes = static_cast<int>(hn::Lanes(df));
   static_assert(sizeof(NeighborList::Entry) == 2 * sizeof(std::uint32_t), "Entry: two words");
   constexpr int kBlock = 256;
@@ -545,7 +576,7 @@ HWY_INLINE void inside_bits_of_halves(const PairPositionsOf<Real>& d, int h0, in
         const auto skip = hn::Add(hn::Set(df, half_skip), hn::GatherIndex(df, d.cluster_moved, j_cluster));
         const auto units = hn::BitCast(di, hn::PromoteTo(du, hn::LoadU(dn, nearest + k0 + k)));
         const auto near = hn::Lt(hn::Mul(hn::ConvertTo(df, units), unit), skip);
-        m += static_cast<int>(hn::CompressStore(hn::Iota(di, k0 + k), hn::RebindMask(di, near), di, look + m));
+        m += compress_store(di, hn::Add(lane_index, hn::Set(di, k0 + k)), hn::RebindMask(di, near), look + m);
       }
       for (; k < n; ++k) {
         look[m] = k0 + k;
