@@ -59,6 +59,12 @@ void excluded_pair_hessian(const Form& form, const PairViewOf<Real>& d, const Ne
 // Extra buffer of the searched list over the pruned one when the configuration leaves it open.
 constexpr double kAutoSearchSkinExtra = 0.6;  // nm
 
+// Lists are pruned on single-precision distances whatever the precision of the forces: twice the
+// lanes a vector, and the list stays exact (the range is widened by their rounding). The extra
+// pairs add exact zeros; only the threads' split of the entries, hence the order of their force
+// sums, can differ from a list pruned on doubles.
+constexpr bool kPruneOnSinglePrecision = true;
+
 // The pair list's buffer: as configured, cut to what the box allows (engine/input.cpp warns).
 double skin_for(const System& system, const ForceFieldConfig& config) {
   return skin_fitting_box(system.box, config.cutoff, config.neighbor_skin);
@@ -155,11 +161,10 @@ void NonbondedPairTerm::check_atoms(const Coords& q) const {
 
 void NonbondedPairTerm::keep_lists(Workspace& w, const Coords& q, Step* step) const {
   check_atoms(q);
-  const bool single = mixed_ || w.single_kept;  // prune on single-precision positions where they are kept
   if (step)
-    w.lists.keep_step(step->list, q, single);
+    w.lists.keep_step(step->list, q, kPruneOnSinglePrecision);
   else
-    w.lists.keep_regular(q, single);
+    w.lists.keep_regular(q, kPruneOnSinglePrecision);
   refresh_layout(w);
 }
 
@@ -173,7 +178,7 @@ void NonbondedPairTerm::start_step(const Coords& q, std::unique_ptr<TermStepStat
   if (!state) state = std::make_unique<Step>();
   Step* step = step_of(state.get());
   step->fixed = !force_continuous_at_cutoff_;
-  run_.lists.start_step(step->list, q, step->fixed, mixed_ || run_.single_kept);
+  run_.lists.start_step(step->list, q, step->fixed, kPruneOnSinglePrecision);
   refresh_layout(run_);
 }
 
@@ -224,7 +229,7 @@ std::size_t NonbondedPairTerm::visited_entries(const TermStepState* step) const 
 void NonbondedPairTerm::restore(const Carried& in) {
   if (in.has("neighbor_list_built_at") && in.coords("neighbor_list_built_at").cols() != n_atoms_)
     throw std::invalid_argument("NonbondedPairTerm::restore: wrong number of atoms");
-  run_.lists.restore(in, mixed_ || run_.single_kept);
+  run_.lists.restore(in, kPruneOnSinglePrecision);
   refresh_layout(run_);
 }
 
