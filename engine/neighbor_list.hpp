@@ -6,7 +6,8 @@
 // marked as leading come first. The list holds, for every
 // half-cluster i (kHalfSize atoms), the j-clusters with an atom within cutoff + skin of one of
 // its atoms, each with a periodic shift and a bit mask of those atom pairs (padding, exclusions
-// and double counting removed). Every atom pair is listed once.
+// and double counting removed). Every atom pair is listed once, under the half whose cluster comes
+// first: a half's j-clusters are its own and later ones (the pair loop relies on it).
 //
 // Positions are never wrapped by the integrators. At a build each atom gets the image offset that
 // puts it into the box; the same offsets are used until the next build, so the packed

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -272,28 +273,47 @@ void NonbondedPairTerm::refresh_single_precision_layout(Workspace& w) const {
 // Runs pack() (worksharing loops that fill the slot arrays), then kernel(thread, n_threads, fx, fy,
 // fz) on every thread with a zeroed private buffer, then adds the buffers, in thread order, to out:
 // one parallel region per evaluation.
-template <class Real, class Pack, class Kernel>
+template <class Real, class Pack, class Halves, class Blocks>
 void NonbondedPairTerm::run_parallel(Workspace& w, std::size_t n_entries, std::vector<std::vector<Real>>& buffers,
-                                     Pack&& pack, Kernel&& kernel, Coords& out) const {
+                                     Pack&& pack, Halves&& halves, Blocks&& blocks, Coords& out) const {
   const NeighborList& list = w.lists.searched();
   const int n = list.n_slots();
-  buffers.resize(omp_get_max_threads());
+  // Segments by the searched list's entries, which every list visited is pruned from: a list
+  // visited instead of another (a step's for the regular one) is then split the same way, and the
+  // pairs it lacks, exact zeros, leave its sums bit for bit those of the other.
+  const std::span<const int> half_start = list.half_start();
+  buffers.resize(pair_loop_segments(omp_get_max_threads()));
   for (auto& b : buffers) b.resize(3 * static_cast<std::size_t>(n));
   const auto& atom_slot = list.atom_slot();
+  std::atomic<int> next_tail{0};
 #pragma omp parallel if (n_entries >= kParallelEntries)
   {
     pack();
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    Real* buffer = buffers[t].data();
-    std::fill(buffer, buffer + 3 * static_cast<std::size_t>(n), Real(0));
-    kernel(t, nt, buffer, buffer + n, buffer + 2 * n);
+    const int segments = pair_loop_segments(nt);
+    const auto run_segment = [&](int s, std::size_t first_slot) {
+      Real* b = buffers[s].data();
+      for (int k = 0; k < 3; ++k) std::fill(b + k * n + first_slot, b + (k + 1) * n, Real(0));
+      for_segment_chunks(half_start, s, nt, [&](int h0, int h1) { halves(h0, h1, b, b + n, b + 2 * n); });
+    };
+    // The home segment's buffer is whole: its thread's excluded pairs may be anywhere.
+    run_segment(t, 0);
+    blocks(t, nt, buffers[t].data(), buffers[t].data() + n, buffers[t].data() + 2 * n);
+    // A tail's entries pair its halves' clusters with the same or later ones (NeighborList), so
+    // its sums start at its first cluster's slots.
+    std::size_t tail_first_slot[kTailSegments] = {};
+    for (int s = nt; s < segments; ++s)
+      tail_first_slot[s - nt] = static_cast<std::size_t>(segment_first_half(half_start, s, nt) / 2) *
+                                NeighborList::kClusterSize;
+    for (int s; (s = nt + next_tail.fetch_add(1, std::memory_order_relaxed)) < segments;)
+      run_segment(s, tail_first_slot[s - nt]);
 #pragma omp barrier
     // In atom order: out is then written in sequence, and the buffers, just written, are still cached.
 #pragma omp for schedule(static)
     for (int a = 0; a < n_atoms_; ++a) {
-      const int s = atom_slot[a];
+      const std::size_t s = atom_slot[a];
       double sx = 0, sy = 0, sz = 0;
-      for (int k = 0; k < nt; ++k) {
+      for (int k = 0; k < segments && (k < nt || s >= tail_first_slot[k - nt]); ++k) {
         const Real* b = buffers[k].data();
         sx += b[s];
         sy += b[n + s];
@@ -367,10 +387,10 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
   run_parallel(
       w, visit.list.size(), slots.thread_buffers,
       [&] { list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
+      [&](int h0, int h1, Real* fx, Real* fy, Real* fz) {
+        pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
+      },
       [&](int t, int nt, Real* fx, Real* fy, Real* fz) {
-        for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
-          pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
-        });
         for_thread_blocks(n_blocks, t, nt, [&](int b) {
           double energies_of_block[kPairEnergies] = {};
           excluded_kernel(view, excluded, cutoff2_, b * kExcludedBlock, std::min(n_excluded, (b + 1) * kExcludedBlock),
@@ -442,11 +462,11 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
         list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data());
         list.pack_vectors(u, slots.ux.data(), slots.uy.data(), slots.uz.data());
       },
+      [&](int h0, int h1, Real* ox, Real* oy, Real* oz) {
+        if (find_masks) mask_kernel(view, h0, h1, w.list_masks.data());
+        pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
+      },
       [&](int t, int nt, Real* ox, Real* oy, Real* oz) {
-        for_thread_chunks(visit.list.half_start, t, nt, [&](int h0, int h1) {
-          if (find_masks) mask_kernel(view, h0, h1, w.list_masks.data());
-          pair_kernel(view, slots.ux.data(), slots.uy.data(), slots.uz.data(), masks, h0, h1, ox, oy, oz);
-        });
         for_thread_blocks(n_blocks, t, nt, [&](int b) {
           for_each_excluded_pair_form(view.forms, [&](const auto& form) {
             excluded_pair_hessian(form, view, excluded, cutoff2_, slots.ux.data(), slots.uy.data(), slots.uz.data(),

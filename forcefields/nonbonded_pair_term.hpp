@@ -7,8 +7,9 @@
 //   (reaction field has the excluded-pair and self terms: reaction_field.hpp)
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
-// Threads: each thread takes its chunks of i-halves (for_thread_chunks) and accumulates into its
-// own force buffer; the buffers are summed per atom in thread order. No atomics, no races.
+// Threads: each thread takes its home segment of chunks of i-halves, then tail segments as they
+// come free (pair_loop_segments), each segment accumulating into its own force buffer; the buffers
+// are summed per atom in segment order. No atomic sums, no races.
 // Energies are summed from per-half partials in a fixed order, so they do not depend on the thread
 // count at all; forces and HVPs differ by round-off only.
 //
@@ -83,7 +84,7 @@ class NonbondedPairTerm : public ForceTerm {
     std::vector<Real> lj;  // PairViewOf::lj
     std::vector<Real> x, y, z;  // positions, packed per evaluation
     std::vector<Real> ux, uy, uz;  // the direction of a Hessian–vector product, packed per product
-    std::vector<std::vector<Real>> thread_buffers;  // per thread: x, y, z blocks of n_slots
+    std::vector<std::vector<Real>> thread_buffers;  // per pair-loop segment: x, y, z blocks of n_slots
   };
   // Everything an evaluation changes: the run's (run_), or a single point's own.
   struct Workspace {
@@ -132,9 +133,12 @@ class NonbondedPairTerm : public ForceTerm {
   template <class Real, class Kernel>
   void add_pair_hessian_vector(Workspace& w, const Visit& visit, Kernel pair_kernel, const Coords& q, const Coords& u,
                                Coords& out, const TermMasks* masks) const;
-  template <class Real, class Pack, class Kernel>
+  // pack(), then halves(h0, h1, x, y, z) for the list's segments (pair_loop_segments), each into a
+  // buffer of its own, and blocks(t, nt, x, y, z) for thread t's excluded-pair blocks into its
+  // home segment's; then out += the buffers' sums in segment order.
+  template <class Real, class Pack, class Halves, class Blocks>
   void run_parallel(Workspace& w, std::size_t n_entries, std::vector<std::vector<Real>>& buffers, Pack&& pack,
-                    Kernel&& kernel, Coords& out) const;
+                    Halves&& halves, Blocks&& blocks, Coords& out) const;
   void check_atoms(const Coords& q) const;
 
   int n_atoms_;

@@ -23,36 +23,81 @@
 
 namespace vimd {
 
-// The pair loop's unit of work: i-halves in chunks of kHalfChunk. Each thread takes a contiguous
-// run of chunks holding about 1/nt of the list's entries, so that the threads finish together
-// (early halves, paired with all later clusters, hold more entries than late ones) and each works
-// on its own part of the box; chunks of a few halves keep the shares within a fraction of a per
-// cent of each other. It depends only on the list and the thread count, as the summation order must.
+// The pair loop's unit of work: i-halves in chunks of kHalfChunk. Work is split between threads
+// by entries at chunk boundaries (early halves, paired with all later clusters, hold more entries
+// than late ones), each thread's work a contiguous run of chunks, on its own part of the box; chunks
+// of a few halves keep the shares within a fraction of a per cent of each other. The split depends
+// only on the list and the thread count, as the summation order must.
 constexpr int kHalfChunk = 4;
 
 inline int half_chunks(int n_halves) { return (n_halves + kHalfChunk - 1) / kHalfChunk; }
 
-// f(h0, h1) for the chunks of thread t of nt; half_start: the list's entries by half (n_halves + 1).
+// The chunk boundary nearest to entry `target` of the list; half_start: its entries by half.
+inline int nearest_chunk_boundary(std::span<const int> half_start, long target) {
+  const int n_halves = static_cast<int>(half_start.size()) - 1;
+  auto chunk_start = [&](int c) { return half_start[std::min(n_halves, c * kHalfChunk)]; };
+  int lo = 0, hi = half_chunks(n_halves);
+  while (lo < hi) {
+    const int mid = (lo + hi) / 2;
+    if (chunk_start(mid) < target)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo > 0 && target - chunk_start(lo - 1) < chunk_start(lo) - target ? lo - 1 : lo;
+}
+
+// f(h0, h1) for the chunks from boundary `first` up to boundary `end` (chunk indices).
+template <class F>
+void for_chunks(int n_halves, int first, int end, F&& f) {
+  for (int c = first; c < end; ++c) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
+}
+
+// f(h0, h1) for the chunks of thread t of nt, about 1/nt of the entries.
 template <class F>
 void for_thread_chunks(std::span<const int> half_start, int t, int nt, F&& f) {
   const int n_halves = static_cast<int>(half_start.size()) - 1;
-  const int chunks = half_chunks(n_halves);
-  auto chunk_start = [&](int c) { return half_start[std::min(n_halves, c * kHalfChunk)]; };
-  // The chunk boundary nearest to entry k/nt of the list.
-  auto first_chunk = [&](int k) {
-    const long target = static_cast<long>(half_start[n_halves]) * k / nt;
-    int lo = 0, hi = chunks;
-    while (lo < hi) {
-      const int mid = (lo + hi) / 2;
-      if (chunk_start(mid) < target)
-        lo = mid + 1;
-      else
-        hi = mid;
-    }
-    return lo > 0 && target - chunk_start(lo - 1) < chunk_start(lo) - target ? lo - 1 : lo;
-  };
-  const int end = t + 1 == nt ? chunks : first_chunk(t + 1);
-  for (int c = t == 0 ? 0 : first_chunk(t); c < end; ++c) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
+  const long total = half_start[n_halves];
+  const int first = t == 0 ? 0 : nearest_chunk_boundary(half_start, total * t / nt);
+  const int end = t + 1 == nt ? half_chunks(n_halves) : nearest_chunk_boundary(half_start, total * (t + 1) / nt);
+  for_chunks(n_halves, first, end, f);
+}
+
+// The pair loop's segments with nt threads: each thread's home run of chunks first, together all
+// but kTailSegments / kTailDenominator of the entries; then kTailSegments runs of
+// 1 / kTailDenominator each at the list's end, which the threads take in turn as they finish, so
+// that a thread on a slower core (a busy sibling, a neighbour on a shared host) does not keep the
+// others waiting. A segment's sums go to a buffer of its own and the buffers are summed in segment
+// order, so the results depend on the list and nt, not on which thread ran which tail. One thread:
+// one segment, the whole list.
+constexpr int kTailSegments = 4;
+constexpr int kTailDenominator = 20;
+
+inline int pair_loop_segments(int nt) { return nt > 1 ? nt + kTailSegments : 1; }
+
+// Segment s's first chunk boundary (s = pair_loop_segments(nt): the end of the list).
+inline int segment_boundary(std::span<const int> half_start, int s, int nt) {
+  const int n_halves = static_cast<int>(half_start.size()) - 1;
+  const int segments = pair_loop_segments(nt);
+  if (s == 0) return 0;
+  if (s == segments) return half_chunks(n_halves);
+  const long total = half_start[n_halves];
+  constexpr long kHome = kTailDenominator - kTailSegments;
+  const long target = s <= nt ? total * kHome * s / (static_cast<long>(kTailDenominator) * nt)
+                               : total * (kHome + s - nt) / kTailDenominator;
+  return nearest_chunk_boundary(half_start, target);
+}
+
+// Segment s's first half.
+inline int segment_first_half(std::span<const int> half_start, int s, int nt) {
+  return std::min(static_cast<int>(half_start.size()) - 1, segment_boundary(half_start, s, nt) * kHalfChunk);
+}
+
+// f(h0, h1) for the chunks of segment s of pair_loop_segments(nt).
+template <class F>
+void for_segment_chunks(std::span<const int> half_start, int s, int nt, F&& f) {
+  for_chunks(static_cast<int>(half_start.size()) - 1, segment_boundary(half_start, s, nt),
+             segment_boundary(half_start, s + 1, nt), f);
 }
 
 // Cluster-pair entries by i-half: entries[half_start[h] .. half_start[h + 1]), and an id that
