@@ -274,14 +274,18 @@ void NonbondedPairTerm::refresh_single_precision_layout(Workspace& w) const {
 // fz) on every thread with a zeroed private buffer, then adds the buffers, in thread order, to out:
 // one parallel region per evaluation.
 template <class Real, class Pack, class Halves, class Blocks>
-void NonbondedPairTerm::run_parallel(Workspace& w, std::size_t n_entries, std::vector<std::vector<Real>>& buffers,
-                                     Pack&& pack, Halves&& halves, Blocks&& blocks, Coords& out) const {
+void NonbondedPairTerm::run_parallel(Workspace& w, std::span<const int> visited_half_start,
+                                     std::vector<std::vector<Real>>& buffers, Pack&& pack, Halves&& halves,
+                                     Blocks&& blocks, Coords& out) const {
   const NeighborList& list = w.lists.searched();
   const int n = list.n_slots();
-  // Segments by the searched list's entries, which every list visited is pruned from: a list
-  // visited instead of another (a step's for the regular one) is then split the same way, and the
-  // pairs it lacks, exact zeros, leave its sums bit for bit those of the other.
-  const std::span<const int> half_start = list.half_start();
+  const std::size_t n_entries = visited_half_start.empty() ? 0 : visited_half_start.back();
+  // Segments by the regular list's entries, where it is there: a step list visited instead is then
+  // split as the regular list would be, and the pairs it lacks, exact zeros, leave its sums bit for
+  // bit the regular list's.
+  const std::span<const int> regular_half_start = w.lists.regular_half_start();
+  const std::span<const int> half_start =
+      regular_half_start.size() == visited_half_start.size() ? regular_half_start : visited_half_start;
   buffers.resize(pair_loop_segments(omp_get_max_threads()));
   for (auto& b : buffers) b.resize(3 * static_cast<std::size_t>(n));
   const auto& atom_slot = list.atom_slot();
@@ -296,17 +300,18 @@ void NonbondedPairTerm::run_parallel(Workspace& w, std::size_t n_entries, std::v
       for (int k = 0; k < 3; ++k) std::fill(b + k * n + first_slot, b + (k + 1) * n, Real(0));
       for_segment_chunks(half_start, s, nt, [&](int h0, int h1) { halves(h0, h1, b, b + n, b + 2 * n); });
     };
-    // The home segment's buffer is whole: its thread's excluded pairs may be anywhere.
-    run_segment(t, 0);
-    blocks(t, nt, buffers[t].data(), buffers[t].data() + n, buffers[t].data() + 2 * n);
     // A tail's entries pair its halves' clusters with the same or later ones (NeighborList), so
-    // its sums start at its first cluster's slots.
+    // its sums start at its first cluster's slots. A home segment's buffer is whole: its thread's
+    // excluded pairs may be anywhere.
     std::size_t tail_first_slot[kTailSegments] = {};
     for (int s = nt; s < segments; ++s)
       tail_first_slot[s - nt] = static_cast<std::size_t>(segment_first_half(half_start, s, nt) / 2) *
                                 NeighborList::kClusterSize;
-    for (int s; (s = nt + next_tail.fetch_add(1, std::memory_order_relaxed)) < segments;)
-      run_segment(s, tail_first_slot[s - nt]);
+    take_segments(t, nt, next_tail, [&](int s) {
+      if (s >= nt) return run_segment(s, tail_first_slot[s - nt]);
+      run_segment(s, 0);
+      blocks(t, nt, buffers[s].data(), buffers[s].data() + n, buffers[s].data() + 2 * n);
+    });
 #pragma omp barrier
     // In atom order: out is then written in sequence, and the buffers, just written, are still cached.
 #pragma omp for schedule(static)
@@ -385,7 +390,7 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
     inside_masks = keep->bits.data();
   }
   run_parallel(
-      w, visit.list.size(), slots.thread_buffers,
+      w, visit.list.half_start, slots.thread_buffers,
       [&] { list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data()); },
       [&](int h0, int h1, Real* fx, Real* fy, Real* fz) {
         pair_kernel(view, h0, h1, fx, fy, fz, half_lj, half_coulomb, inside_masks);
@@ -457,7 +462,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
       return simd::mask_kernel();
   }();
   run_parallel(
-      w, visit.list.size(), slots.thread_buffers,
+      w, visit.list.half_start, slots.thread_buffers,
       [&] {
         list.pack_positions(q, slots.x.data(), slots.y.data(), slots.z.data());
         list.pack_vectors(u, slots.ux.data(), slots.uy.data(), slots.uz.data());

@@ -137,8 +137,8 @@ class NonbondedPairTerm : public ForceTerm {
   // buffer of its own, and blocks(t, nt, x, y, z) for thread t's excluded-pair blocks into its
   // home segment's; then out += the buffers' sums in segment order.
   template <class Real, class Pack, class Halves, class Blocks>
-  void run_parallel(Workspace& w, std::size_t n_entries, std::vector<std::vector<Real>>& buffers, Pack&& pack,
-                    Halves&& halves, Blocks&& blocks, Coords& out) const;
+  void run_parallel(Workspace& w, std::span<const int> visited_half_start, std::vector<std::vector<Real>>& buffers,
+                    Pack&& pack, Halves&& halves, Blocks&& blocks, Coords& out) const;
   void check_atoms(const Coords& q) const;
 
   int n_atoms_;

@@ -124,10 +124,12 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
   const int n_halves = list_.n_halves();
   to.half_start.assign(n_halves + 1, 0);
   const bool parallel = n_entries >= kParallelEntries;
-  to.parts.resize(std::max<std::size_t>(to.parts.size(), parallel ? omp_get_max_threads() : 1));
+  to.parts.resize(std::max<std::size_t>(to.parts.size(), pair_loop_segments(parallel ? omp_get_max_threads() : 1)));
   to.part_begin.assign(to.parts.size(), 0);
   to.part_end.assign(to.parts.size(), 0);
-  // Each thread narrows its chunks of halves into its own part, and counts what each half keeps.
+  std::atomic<int> next_tail{0};
+  // The pair loop's segments (a slower thread takes fewer tails): each narrows its chunks of halves
+  // into its own part, and counts what each half keeps.
 #pragma omp parallel if (parallel)
   {
     if (single)
@@ -135,20 +137,22 @@ void PairLists::narrow(const PairListView& from, const Coords& q, double range, 
     else
       list_.pack_positions(q, x_.data(), y_.data(), z_.data());
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    std::vector<NeighborList::Entry>& part = to.parts[t];
-    std::size_t kept = 0;
-    bool first_chunk = true;
-    for_thread_chunks(from.half_start, t, nt, [&](int h0, int h1) {
-      if (first_chunk) to.part_begin[t] = h0, first_chunk = false;
-      to.part_end[t] = h1;
-      const std::size_t room = kept + (from.half_start[h1] - from.half_start[h0]);
-      if (room > part.size()) {
-        if (room > part.capacity()) part.reserve(room + room / 8);  // not doubling: the list is large
-        part.resize(room);
-      }
-      int* kept_of_half = to.half_start.data() + h0 + 1;
-      kept += single ? float_kernel(float_view, h0, h1, part.data() + kept, kept_of_half)
-                     : kernel(view, h0, h1, part.data() + kept, kept_of_half);
+    take_segments(t, nt, next_tail, [&](int s) {
+      std::vector<NeighborList::Entry>& part = to.parts[s];
+      std::size_t kept = 0;
+      bool first_chunk = true;
+      for_segment_chunks(from.half_start, s, nt, [&](int h0, int h1) {
+        if (first_chunk) to.part_begin[s] = h0, first_chunk = false;
+        to.part_end[s] = h1;
+        const std::size_t room = kept + (from.half_start[h1] - from.half_start[h0]);
+        if (room > part.size()) {
+          if (room > part.capacity()) part.reserve(room + room / 8);  // not doubling: the list is large
+          part.resize(room);
+        }
+        int* kept_of_half = to.half_start.data() + h0 + 1;
+        kept += single ? float_kernel(float_view, h0, h1, part.data() + kept, kept_of_half)
+                       : kernel(view, h0, h1, part.data() + kept, kept_of_half);
+      });
     });
   }
   std::partial_sum(to.half_start.begin(), to.half_start.end(), to.half_start.begin());

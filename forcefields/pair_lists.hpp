@@ -15,6 +15,7 @@
 // force jumps at the cut-off, the step list is the fixed pair set (skin 0). The dropped pairs would
 // have added exact zeros: results are bitwise those of the wider list.
 #include <algorithm>
+#include <atomic>
 #include <span>
 #include <vector>
 
@@ -23,10 +24,10 @@
 
 namespace vimd {
 
-// The pair loop's unit of work: i-halves in chunks of kHalfChunk. Work is split between threads
-// by entries at chunk boundaries (early halves, paired with all later clusters, hold more entries
-// than late ones), each thread's work a contiguous run of chunks, on its own part of the box; chunks
-// of a few halves keep the shares within a fraction of a per cent of each other. The split depends
+// The pair loop's unit of work: i-halves in chunks of kHalfChunk. The list is cut into segments
+// (below) by entries at chunk boundaries (early halves, paired with all later clusters, hold more
+// entries than late ones), each a contiguous run of chunks, on its own part of the box; chunks of a
+// few halves keep the segments within a fraction of a per cent of their shares. The cut depends
 // only on the list and the thread count, as the summation order must.
 constexpr int kHalfChunk = 4;
 
@@ -47,22 +48,6 @@ inline int nearest_chunk_boundary(std::span<const int> half_start, long target) 
   return lo > 0 && target - chunk_start(lo - 1) < chunk_start(lo) - target ? lo - 1 : lo;
 }
 
-// f(h0, h1) for the chunks from boundary `first` up to boundary `end` (chunk indices).
-template <class F>
-void for_chunks(int n_halves, int first, int end, F&& f) {
-  for (int c = first; c < end; ++c) f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
-}
-
-// f(h0, h1) for the chunks of thread t of nt, about 1/nt of the entries.
-template <class F>
-void for_thread_chunks(std::span<const int> half_start, int t, int nt, F&& f) {
-  const int n_halves = static_cast<int>(half_start.size()) - 1;
-  const long total = half_start[n_halves];
-  const int first = t == 0 ? 0 : nearest_chunk_boundary(half_start, total * t / nt);
-  const int end = t + 1 == nt ? half_chunks(n_halves) : nearest_chunk_boundary(half_start, total * (t + 1) / nt);
-  for_chunks(n_halves, first, end, f);
-}
-
 // The pair loop's segments with nt threads: each thread's home run of chunks first, together all
 // but kTailSegments / kTailDenominator of the entries; then kTailSegments runs of
 // 1 / kTailDenominator each at the list's end, which the threads take in turn as they finish, so
@@ -70,8 +55,8 @@ void for_thread_chunks(std::span<const int> half_start, int t, int nt, F&& f) {
 // others waiting. A segment's sums go to a buffer of its own and the buffers are summed in segment
 // order, so the results depend on the list and nt, not on which thread ran which tail. One thread:
 // one segment, the whole list.
-constexpr int kTailSegments = 4;
-constexpr int kTailDenominator = 20;
+constexpr int kTailSegments = 2;
+constexpr int kTailDenominator = 10;
 
 inline int pair_loop_segments(int nt) { return nt > 1 ? nt + kTailSegments : 1; }
 
@@ -93,11 +78,20 @@ inline int segment_first_half(std::span<const int> half_start, int s, int nt) {
   return std::min(static_cast<int>(half_start.size()) - 1, segment_boundary(half_start, s, nt) * kHalfChunk);
 }
 
+// f(s) for the segments thread t of nt runs: its home segment t, then tails as next_tail (shared by
+// the threads, from 0) hands them out.
+template <class F>
+void take_segments(int t, int nt, std::atomic<int>& next_tail, F&& f) {
+  f(t);
+  for (int s; (s = nt + next_tail.fetch_add(1, std::memory_order_relaxed)) < pair_loop_segments(nt);) f(s);
+}
+
 // f(h0, h1) for the chunks of segment s of pair_loop_segments(nt).
 template <class F>
 void for_segment_chunks(std::span<const int> half_start, int s, int nt, F&& f) {
-  for_chunks(static_cast<int>(half_start.size()) - 1, segment_boundary(half_start, s, nt),
-             segment_boundary(half_start, s + 1, nt), f);
+  const int n_halves = static_cast<int>(half_start.size()) - 1, end = segment_boundary(half_start, s + 1, nt);
+  for (int c = segment_boundary(half_start, s, nt); c < end; ++c)
+    f(c * kHalfChunk, std::min(n_halves, (c + 1) * kHalfChunk));
 }
 
 // Cluster-pair entries by i-half: entries[half_start[h] .. half_start[h + 1]), and an id that
@@ -168,6 +162,9 @@ class PairLists {
   PairListView regular() const {
     return pruning() ? pruned_.view() : PairListView{list_.entries(), list_.half_start(), searched_id_};
   }
+  // The regular list's entries by half (empty before its first pruning), without assembling a
+  // searched list's entries.
+  std::span<const int> regular_half_start() const { return pruning() ? pruned_.half_start : list_.half_start(); }
   // Buffers of the pruned and the searched list (equal: no pruning), nm.
   double skin() const { return skin_; }
   double search_skin() const { return list_.skin(); }

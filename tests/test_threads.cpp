@@ -142,10 +142,11 @@ TEST(ThreadAgreementList, NeighborListDoesNotDependOnThreadCount) {
   }
 }
 
-// The pair loop's split: every half once, in order, each thread a contiguous run; each boundary
-// between threads within half a chunk of its place, so a share is within a chunk of 1/nt of the
-// entries, where the early halves hold far more entries than the late ones.
-TEST(ThreadAgreementList, ThreadChunksCoverEveryHalfOnceInEvenShares) {
+// The pair loop's segments: every half once, in order, each segment a contiguous run; each
+// boundary within half a chunk of its place, so a home segment is within a chunk of its 1/nt of the
+// home part of the entries and a tail of its 1/kTailDenominator, where the early halves hold far
+// more entries than the late ones.
+TEST(ThreadAgreementList, SegmentsCoverEveryHalfOnceInTheirShares) {
   std::mt19937 rng(3);
   for (int n_halves : {1, 7, 400, 1001}) {
     std::vector<int> half_start{0};
@@ -155,19 +156,30 @@ TEST(ThreadAgreementList, ThreadChunksCoverEveryHalfOnceInEvenShares) {
     for (int c = 0; c * kHalfChunk < n_halves; ++c)
       heaviest_chunk = std::max(heaviest_chunk, half_start[std::min(n_halves, (c + 1) * kHalfChunk)] -
                                                     half_start[c * kHalfChunk]);
+    const double total = half_start.back();
     for (int nt : {1, 2, 3, 4}) {
+      const int segments = pair_loop_segments(nt);
+      EXPECT_EQ(segments, nt == 1 ? 1 : nt + kTailSegments);
       int next = 0;
-      for (int t = 0; t < nt; ++t) {
+      for (int s = 0; s < segments; ++s) {
+        const std::string where = std::to_string(n_halves) + " halves, segment " + std::to_string(s) + " of " +
+                                  std::to_string(segments) + ", " + std::to_string(nt) + " threads";
         long share = 0;
-        for_thread_chunks(half_start, t, nt, [&](int h0, int h1) {
-          EXPECT_EQ(h0, next) << n_halves << " halves, thread " << t << " of " << nt;
+        bool first = true;
+        for_segment_chunks(half_start, s, nt, [&](int h0, int h1) {
+          EXPECT_EQ(h0, next) << where;
+          if (first) {
+            EXPECT_EQ(segment_first_half(half_start, s, nt), h0) << where;
+            first = false;
+          }
           EXPECT_LT(h0, h1);
           EXPECT_LE(h1 - h0, kHalfChunk);
           next = h1;
           share += half_start[h1] - half_start[h0];
         });
-        EXPECT_LE(std::abs(share - static_cast<double>(half_start.back()) / nt), heaviest_chunk)
-            << n_halves << " halves, thread " << t << " of " << nt;
+        const double home = static_cast<double>(kTailDenominator - kTailSegments) / kTailDenominator;
+        const double expected = nt == 1 ? total : s < nt ? total * home / nt : total / kTailDenominator;
+        EXPECT_LE(std::abs(share - expected), heaviest_chunk) << where;
       }
       EXPECT_EQ(next, n_halves);
     }
