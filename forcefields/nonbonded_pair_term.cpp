@@ -270,9 +270,7 @@ void NonbondedPairTerm::refresh_single_precision_layout(Workspace& w) const {
     v->resize(w.lists.searched().n_slots());
 }
 
-// Runs pack() (worksharing loops that fill the slot arrays), then kernel(thread, n_threads, fx, fy,
-// fz) on every thread with a zeroed private buffer, then adds the buffers, in thread order, to out:
-// one parallel region per evaluation.
+// One parallel region per evaluation; pack() is worksharing loops that fill the slot arrays.
 template <class Real, class Pack, class Halves, class Blocks>
 void NonbondedPairTerm::run_parallel(Workspace& w, std::span<const int> visited_half_start,
                                      std::vector<std::vector<Real>>& buffers, Pack&& pack, Halves&& halves,
