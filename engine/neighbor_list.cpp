@@ -36,26 +36,24 @@ bool is_positive_image(const Eigen::Vector3i& n) {
 }
 
 // Per-half results built by several threads, put in half order, so that the result does not depend
-// on which thread did which half: half h's items are the start[h + 1] − start[h] at offset[h] of
-// per_thread[owner[h]], and go to start[h] of `out`.
-template <class T>
-void gather_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
-                          const std::vector<int>& offset, const std::vector<int>& start, std::vector<T>& out,
-                          bool parallel) {
+// on which thread did which half: half h's start[h + 1] − start[h] items begin at items_of(h), and go
+// to start[h] of `out`.
+template <class T, class ItemsOf>
+void gather_in_half_order(ItemsOf&& items_of, const std::vector<int>& start, std::vector<T>& out, bool parallel) {
   out.resize(start.back());
-  const int n_halves = static_cast<int>(owner.size());
+  const int n_halves = static_cast<int>(start.size()) - 1;
 #pragma omp parallel for schedule(static) if (parallel)
-  for (int h = 0; h < n_halves; ++h)
-    std::copy_n(per_thread[owner[h]].begin() + offset[h], start[h + 1] - start[h], out.begin() + start[h]);
+  for (int h = 0; h < n_halves; ++h) std::copy_n(items_of(h), start[h + 1] - start[h], out.begin() + start[h]);
 }
 
-// The same where start[h + 1] holds half h's count on entry: on return start holds where each begins.
+// The same where start[h + 1] holds half h's count on entry, and its items are at offset[h] of
+// per_thread[owner[h]]: on return start holds where each begins.
 template <class T>
 void assemble_in_half_order(const std::vector<std::vector<T>>& per_thread, const std::vector<int>& owner,
                             const std::vector<int>& offset, std::vector<int>& start, std::vector<T>& out,
                             bool parallel) {
   std::partial_sum(start.begin(), start.end(), start.begin());
-  gather_in_half_order(per_thread, owner, offset, start, out, parallel);
+  gather_in_half_order([&](int h) { return per_thread[owner[h]].data() + offset[h]; }, start, out, parallel);
 }
 
 }  // namespace
@@ -346,15 +344,8 @@ void NeighborList::search_pairs() {
   // entries stay there (numbered in half order, so nothing depends on the thread count): a pruning
   // reads them by half, and entries() puts them in one array only where a caller asks.
   half_start_.assign(n_halves + 1, 0);
-  std::vector<int>& owner = half_owner_;
-  std::vector<int>& offset = half_offset_;
-  owner.assign(n_halves, 0);
-  offset.assign(n_halves, 0);
-  // Kept: no regrowing at every search.
-  std::vector<std::vector<Entry>>& per_thread = search_buffers_;
-  std::vector<std::vector<NearestDistance>>& per_thread_nearest = search_nearest_buffers_;
-  per_thread.resize(omp_get_max_threads());
-  per_thread_nearest.resize(per_thread.size());
+  half_place_.assign(n_halves, {});
+  search_chunks_.resize(omp_get_max_threads());
   const ClusterPairKernel kernel = simd::cluster_pair_kernel();
   const BoxBatchKernel box_batch = simd::box_batch_kernel();
   const double* const lo[3] = {cluster_lo_[0].data(), cluster_lo_[1].data(), cluster_lo_[2].data()};
@@ -371,10 +362,10 @@ void NeighborList::search_pairs() {
 #pragma omp parallel if (n_atoms_ >= kParallelSearchAtoms)
   {
     const int t = omp_get_thread_num();
-    std::vector<Entry>& out = per_thread[t];
-    std::vector<NearestDistance>& out_nearest = per_thread_nearest[t];
-    out.clear();
-    out_nearest.clear();
+    std::vector<SearchChunk>& chunks = search_chunks_[t];
+    if (chunks.empty()) chunks.emplace_back();
+    for (SearchChunk& chunk : chunks) chunk.entries.clear(), chunk.nearest.clear();
+    int chunk = 0;
     std::vector<Entry> found[2];
     std::vector<NearestDistance> found_nearest[2];
     std::uint64_t near[kBoxBatch];
@@ -434,13 +425,26 @@ void NeighborList::search_pairs() {
       }
       // found[hh] is in the loops' order: by shift, then by j-cluster (columns and the clusters in
       // each in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
+      // A full chunk is left as it is and the next one taken: one vector of all the entries would
+      // copy them as it grew and hold both copies at once, the largest allocation of a run.
+      const std::size_t n_found = found[0].size() + found[1].size();
+      if (chunks[chunk].entries.size() + n_found > kSearchChunkEntries && !chunks[chunk].entries.empty() &&
+          ++chunk == static_cast<int>(chunks.size()))
+        chunks.emplace_back();
+      SearchChunk& out = chunks[chunk];
+      const std::size_t needed = out.entries.size() + n_found;
+      if (out.entries.capacity() < needed) {  // doubling, but not past a chunk
+        const std::size_t capacity = std::min(std::max(2 * out.entries.capacity(), needed),
+                                              std::max(kSearchChunkEntries, needed));
+        out.entries.reserve(capacity);
+        out.nearest.reserve(capacity);
+      }
       for (int hh = 0; hh < 2; ++hh) {
         const int h = 2 * a_cluster + hh;
         half_start_[h + 1] = static_cast<int>(found[hh].size());
-        owner[h] = t;
-        offset[h] = static_cast<int>(out.size());
-        out.insert(out.end(), found[hh].begin(), found[hh].end());
-        out_nearest.insert(out_nearest.end(), found_nearest[hh].begin(), found_nearest[hh].end());
+        half_place_[h] = {t, chunk, static_cast<int>(out.entries.size())};
+        out.entries.insert(out.entries.end(), found[hh].begin(), found[hh].end());
+        out.nearest.insert(out.nearest.end(), found_nearest[hh].begin(), found_nearest[hh].end());
       }
     }
   }
@@ -457,12 +461,12 @@ NeighborList::NearestDistance NeighborList::encode_nearest(float distance) {
 
 void NeighborList::point_to_halves(std::vector<const Entry*>& entries,
                                    std::vector<const NearestDistance*>& nearest) const {
-  const std::size_t n_halves = half_owner_.size();
+  const std::size_t n_halves = half_place_.size();
   entries.resize(n_halves);
   nearest.resize(n_halves);
   for (std::size_t h = 0; h < n_halves; ++h) {
-    entries[h] = search_buffers_[half_owner_[h]].data() + half_offset_[h];
-    nearest[h] = search_nearest_buffers_[half_owner_[h]].data() + half_offset_[h];
+    entries[h] = half_entries(h);
+    nearest[h] = half_nearest(h);
   }
 }
 
@@ -479,8 +483,8 @@ const std::vector<NeighborList::NearestDistance>& NeighborList::nearest() const 
 void NeighborList::assemble() const {
   if (assembled_build_ == builds_) return;
   const bool parallel = n_atoms_ >= kParallelSearchAtoms;
-  gather_in_half_order(search_buffers_, half_owner_, half_offset_, half_start_, entries_, parallel);
-  gather_in_half_order(search_nearest_buffers_, half_owner_, half_offset_, half_start_, nearest_, parallel);
+  gather_in_half_order([&](int h) { return half_entries(h); }, half_start_, entries_, parallel);
+  gather_in_half_order([&](int h) { return half_nearest(h); }, half_start_, nearest_, parallel);
   assembled_build_ = builds_;
 }
 

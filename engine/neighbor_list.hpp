@@ -186,11 +186,25 @@ class NeighborList {
   std::vector<Eigen::Vector3i> shift_images_;
   int zero_shift_ = 0;
   std::vector<int> half_start_ = {0};  // a list without halves before the first build
-  // Per thread: the entries and nearest distances of the halves it searched (kept from search to
-  // search: no regrowing); half h's are at half_offset_[h] of thread half_owner_[h]'s.
-  std::vector<std::vector<Entry>> search_buffers_;
-  std::vector<std::vector<NearestDistance>> search_nearest_buffers_;
-  std::vector<int> half_owner_, half_offset_;
+  // Per thread: the entries and nearest distances of the halves it searched, in chunks of about
+  // kSearchChunkEntries (kept from search to search: no regrowing); half h's are at half_place_[h].
+  static constexpr std::size_t kSearchChunkEntries = std::size_t{1} << 15;
+  struct SearchChunk {
+    std::vector<Entry> entries;
+    std::vector<NearestDistance> nearest;
+  };
+  struct HalfPlace {
+    int thread = 0, chunk = 0, offset = 0;
+  };
+  std::vector<std::vector<SearchChunk>> search_chunks_;
+  std::vector<HalfPlace> half_place_;
+  const SearchChunk& chunk_of(std::size_t h) const {
+    return search_chunks_[half_place_[h].thread][half_place_[h].chunk];
+  }
+  const Entry* half_entries(std::size_t h) const { return chunk_of(h).entries.data() + half_place_[h].offset; }
+  const NearestDistance* half_nearest(std::size_t h) const {
+    return chunk_of(h).nearest.data() + half_place_[h].offset;
+  }
   void assemble() const;
   mutable long assembled_build_ = -1;
   mutable std::vector<Entry> entries_;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -771,6 +772,42 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
     EXPECT_EQ(static_cast<int>(list.excluded_pairs().size()), excluded_pairs / 2);
   }
   simd::use_target("");
+}
+
+// A list of more entries than two search chunks a thread hold, at two threads: every
+// half's entries, read in place, are entries() in half order, and the listed pairs are exactly the
+// pairs in range (up to the search's rounding).
+TEST(NeighborList, LargeListsKeepEveryHalfInPlace) {
+  const double cutoff = 0.9, skin = 0.7, range = cutoff + skin, rounding = 1e-4;
+  auto [system, q] = testing::water_like_system(1500, Vec3(3.9, 3.8, 4.0), 78);
+  NeighborList list(system.box, cutoff, skin, system.exclusions);
+  list.build(q);
+  ASSERT_GT(list.entries().size(), 4u << 15) << "too few entries for two chunks a thread";
+  std::vector<const NeighborList::Entry*> entries;
+  std::vector<const NeighborList::NearestDistance*> nearest;
+  list.point_to_halves(entries, nearest);
+  long listed = 0;
+  for (int h = 0; h < list.n_halves(); ++h)
+    for (int e = list.half_start()[h], k = 0; e < list.half_start()[h + 1]; ++e, ++k) {
+      ASSERT_EQ(entries[h][k].j_cluster(), list.entries()[e].j_cluster());
+      ASSERT_EQ(entries[h][k].shift(), list.entries()[e].shift());
+      ASSERT_EQ(entries[h][k].mask, list.entries()[e].mask);
+      ASSERT_EQ(nearest[h][k], list.nearest()[e]);
+      listed += std::popcount(entries[h][k].mask);
+    }
+  std::set<std::pair<int, int>> excluded;
+  for (int a = 0; a < q.cols(); ++a)
+    for (int b : system.exclusions[a]) excluded.insert({a, b});
+  long surely_in = 0, maybe_in = 0;
+  for (int a = 0; a < q.cols(); ++a)
+    for (int b = a + 1; b < q.cols(); ++b) {
+      if (excluded.count({a, b})) continue;
+      const double d = system.box.minimum_image(q.col(a) - q.col(b)).norm();
+      surely_in += d < range - rounding;
+      maybe_in += d < range + rounding;
+    }
+  EXPECT_GE(listed, surely_in);
+  EXPECT_LE(listed, maybe_in);
 }
 
 TEST(NeighborList, RejectsBoxesShorterThanTwiceTheCutoff) {
