@@ -309,6 +309,10 @@ int main(int argc, char** argv) {
   // A fixed threshold: glibc otherwise raises it to the size of each large buffer freed, and the
   // pair lists' regrown buffers then come from the heap, whose freed pages stay resident.
   mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  // A reserve kept at the top of each thread's heap: FFTW allocates and frees a buffer at every
+  // transform of the PME mesh, and without the reserve each one is a fresh mapping, its page faults
+  // and its unmapping, which stalls every CPU (a TLB shootdown).
+  mallopt(M_TOP_PAD, 16 * 1024 * 1024);
   CLI::App app{"vimd: molecular dynamics with RATTLE and variational integrators of any order"};
   app.require_subcommand(1);
   // Options of the program, accepted before or after the subcommand (`vimd run X.toml --threads 2`).
