@@ -423,8 +423,6 @@ void NeighborList::search_pairs() {
             }
           }
       }
-      // found[hh] is in the loops' order: by shift, then by j-cluster (columns and the clusters in
-      // each in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
       // A full chunk is left as it is and the next one taken: one vector of all the entries would
       // copy them as it grew and hold both copies at once, the largest allocation of a run.
       const std::size_t n_found = found[0].size() + found[1].size();
@@ -439,6 +437,8 @@ void NeighborList::search_pairs() {
         out.entries.reserve(capacity);
         out.nearest.reserve(capacity);
       }
+      // found[hh] is in the loops' order: by shift, then by j-cluster (columns and the clusters in
+      // each in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
       for (int hh = 0; hh < 2; ++hh) {
         const int h = 2 * a_cluster + hh;
         half_start_[h + 1] = static_cast<int>(found[hh].size());

@@ -774,7 +774,7 @@ TEST(NeighborList, ListsEveryPairInRangeExactlyOnce) {
   simd::use_target("");
 }
 
-// A list of more entries than two search chunks a thread hold, at two threads: every
+// A list of more entries than four search chunks hold (two a thread at two threads): every
 // half's entries, read in place, are entries() in half order, and the listed pairs are exactly the
 // pairs in range (up to the search's rounding).
 TEST(NeighborList, LargeListsKeepEveryHalfInPlace) {
