@@ -248,7 +248,7 @@ void NonbondedPairTerm::refresh_layout(Workspace& w) const {
     slots.charge[s] = charge_[a];
     w.slot_type[s] = type_[a];
   }
-  for (auto* v : {&slots.x, &slots.y, &slots.z, &slots.ux, &slots.uy, &slots.uz}) v->resize(n);
+  for (auto* v : {&slots.x, &slots.y, &slots.z}) v->resize(n);
   constexpr int kC = NeighborList::kClusterSize;
   slots.lj.assign(2 * static_cast<std::size_t>(n_types_) * n, 0.0);
   for (int t = 0; t < n_types_; ++t)
@@ -266,8 +266,7 @@ void NonbondedPairTerm::refresh_single_precision_layout(Workspace& w) const {
   SlotArrays<float>& single = w.single_slots;
   single.charge.assign(w.slots.charge.begin(), w.slots.charge.end());
   single.lj.assign(w.slots.lj.begin(), w.slots.lj.end());
-  for (auto* v : {&single.x, &single.y, &single.z, &single.ux, &single.uy, &single.uz})
-    v->resize(w.lists.searched().n_slots());
+  for (auto* v : {&single.x, &single.y, &single.z}) v->resize(w.lists.searched().n_slots());
 }
 
 // One parallel region per evaluation; pack() is worksharing loops that fill the slot arrays.
@@ -430,6 +429,8 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
   SlotArrays<Real>& slots = w.template slot_arrays<Real>();
   const PairViewOf<Real> view = pair_view<Real>(w, visit);
   const NeighborList& list = w.lists.searched();
+  // Sized here, not with the layout: runs without products (RATTLE, Verlet) never hold them.
+  for (auto* v : {&slots.ux, &slots.uy, &slots.uz}) v->resize(list.n_slots());
   const NeighborList::ExcludedPair* excluded = list.excluded_pairs().data();
   const int n_excluded = excluded_pairs_ ? static_cast<int>(list.excluded_pairs().size()) : 0;
   const int n_blocks = (n_excluded + kExcludedBlock - 1) / kExcludedBlock;

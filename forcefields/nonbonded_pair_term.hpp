@@ -83,7 +83,7 @@ class NonbondedPairTerm : public ForceTerm {
     std::vector<Real> charge;
     std::vector<Real> lj;  // PairViewOf::lj
     std::vector<Real> x, y, z;  // positions, packed per evaluation
-    std::vector<Real> ux, uy, uz;  // the direction of a Hessian–vector product, packed per product
+    std::vector<Real> ux, uy, uz;  // the direction of a Hessian–vector product, packed per product (empty until one)
     std::vector<std::vector<Real>> thread_buffers;  // per pair-loop segment: x, y, z blocks of n_slots
   };
   // Everything an evaluation changes: the run's (run_), or a single point's own.
