@@ -17,8 +17,10 @@
 #define VIMD_ENGINE_SIMD_INL_H_
 #endif
 
+#include <array>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -62,6 +64,32 @@ using SimdFloat = SimdVec<float>;
 using SimdTag = SimdDouble::Tag;
 using SimdMask = SimdMaskOf<double>;
 
+// Element k of the compile-time array C (doubles, rounded to the lanes' type) in every lane, as a
+// vector of the argument's type (only its type is used): the constants of the pair loops' polynomials
+// and Newton steps. Before AVX-512, x86 cannot broadcast a constant inside an arithmetic instruction:
+// Set costs a broadcast per use there (the loops have no register left to keep it in), where a whole
+// vector in a table is an operand that the FMA reads straight from memory.
+template <class Real, const auto& C>
+struct SplatTable {
+  static constexpr std::size_t kLanes = hn::MaxLanes(typename SimdVec<Real>::Tag());
+  alignas(64) static constexpr std::array<std::array<Real, kLanes>, std::size(C)> kRows = [] {
+    std::array<std::array<Real, kLanes>, std::size(C)> rows{};
+    for (std::size_t k = 0; k < std::size(C); ++k) rows[k].fill(static_cast<Real>(C[k]));
+    return rows;
+  }();
+};
+template <const auto& C, class Real>
+HWY_INLINE SimdVec<Real> splat(std::size_t k, SimdVec<Real>) {
+#if HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3 && HWY_TARGET != HWY_EMU128 && HWY_TARGET != HWY_SCALAR
+  // Hidden from the optimiser, which would otherwise turn the load back into a broadcast.
+  const Real* rows = SplatTable<Real, C>::kRows[0].data();
+  asm("" : "+r"(rows));
+  return {hn::Load(typename SimdVec<Real>::Tag(), rows + k * SplatTable<Real, C>::kLanes)};
+#else
+  return SimdVec<Real>::broadcast(C[k]);
+#endif
+}
+
 template <class Real>
 HWY_INLINE SimdVec<Real> simd_load(const Real* p) {
   return {hn::LoadU(typename SimdVec<Real>::Tag(), p)};
@@ -95,10 +123,11 @@ HWY_INLINE SimdDouble simd_rsqrt(SimdDouble x) {
   // Estimates coarser than x86's 12 bits (the portable bit trick: 2e-3) take a Newton step first.
   y = hn::Mul(y, hn::NegMulAdd(hn::Mul(x.v, hn::Set(d, 0.5)), hn::Mul(y, y), hn::Set(d, 1.5)));
 #endif
-  const hn::Vec<SimdTag> e = hn::NegMulAdd(x.v, hn::Mul(y, y), hn::Set(d, 1.0));
-  hn::Vec<SimdTag> series = hn::MulAdd(e, hn::Set(d, 35.0 / 128), hn::Set(d, 5.0 / 16));
-  series = hn::MulAdd(series, e, hn::Set(d, 3.0 / 8));
-  series = hn::MulAdd(series, e, hn::Set(d, 0.5));
+  static constexpr double kSeries[] = {1.0, 0.5, 3.0 / 8, 5.0 / 16, 35.0 / 128};
+  const hn::Vec<SimdTag> e = hn::NegMulAdd(x.v, hn::Mul(y, y), splat<kSeries>(0, x).v);
+  hn::Vec<SimdTag> series = hn::MulAdd(e, splat<kSeries>(4, x).v, splat<kSeries>(3, x).v);
+  series = hn::MulAdd(series, e, splat<kSeries>(2, x).v);
+  series = hn::MulAdd(series, e, splat<kSeries>(1, x).v);
   return {hn::MulAdd(hn::Mul(series, e), y, y)};
 #endif
 }
@@ -108,7 +137,8 @@ HWY_INLINE SimdFloat simd_rsqrt(SimdFloat x) {
   using Tag = SimdFloat::Tag;
   constexpr int kNewtonSteps = HWY_TARGET == HWY_SCALAR ? 2 : 1;
   hn::Vec<Tag> y = hn::ApproximateReciprocalSqrt(x.v);
-  const hn::Vec<Tag> half_x = hn::Mul(x.v, hn::Set(Tag(), 0.5f)), three_halves = hn::Set(Tag(), 1.5f);
+  static constexpr double kNewton[] = {0.5, 1.5};
+  const hn::Vec<Tag> half_x = hn::Mul(x.v, splat<kNewton>(0, x).v), three_halves = splat<kNewton>(1, x).v;
   for (int k = 0; k < kNewtonSteps; ++k) y = hn::Mul(y, hn::NegMulAdd(half_x, hn::Mul(y, y), three_halves));
   return {y};
 }

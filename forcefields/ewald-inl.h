@@ -22,23 +22,25 @@ HWY_BEFORE_NAMESPACE();
 namespace vimd {
 namespace HWY_NAMESPACE {
 
-// Horner's rule for c[0] + c[1] x + ... , highest power last.
-template <class V, std::size_t N>
-HWY_INLINE V ewald_polynomial(V x, const double (&c)[N]) {
-  V p = V::broadcast(c[N - 1]);
-  for (std::size_t k = N - 1; k-- > 0;) p = mul_add(p, x, V::broadcast(c[k]));
+// Horner's rule for C[0] + C[1] x + ... , highest power last.
+template <const auto& C, class V>
+HWY_INLINE V ewald_polynomial(V x) {
+  constexpr std::size_t N = std::size(C);
+  V p = splat<C>(N - 1, x);
+  for (std::size_t k = N - 1; k-- > 0;) p = mul_add(p, x, splat<C>(k, x));
   return p;
 }
 
 // The same as its even and its odd powers, each by Horner's rule in x² (given): two chains of half the
 // latency of one, for the double-precision Ewald corrections (the single-precision ones are too short
 // to gain from it).
-template <class V, std::size_t N>
-HWY_INLINE V ewald_polynomial_even_odd(V x, V x2, const double (&c)[N]) {
+template <const auto& C, class V>
+HWY_INLINE V ewald_polynomial_even_odd(V x, V x2) {
+  constexpr std::size_t N = std::size(C);
   constexpr std::size_t kTopEven = (N - 1) / 2 * 2, kTopOdd = (N - 2) / 2 * 2 + 1;
-  V even = V::broadcast(c[kTopEven]), odd = V::broadcast(c[kTopOdd]);
-  for (std::size_t k = kTopEven; k >= 2; k -= 2) even = mul_add(even, x2, V::broadcast(c[k - 2]));
-  for (std::size_t k = kTopOdd; k >= 3; k -= 2) odd = mul_add(odd, x2, V::broadcast(c[k - 2]));
+  V even = splat<C>(kTopEven, x), odd = splat<C>(kTopOdd, x);
+  for (std::size_t k = kTopEven; k >= 2; k -= 2) even = mul_add(even, x2, splat<C>(k - 2, x));
+  for (std::size_t k = kTopOdd; k >= 3; k -= 2) odd = mul_add(odd, x2, splat<C>(k - 2, x));
   return mul_add(odd, x, even);
 }
 
@@ -65,16 +67,16 @@ HWY_INLINE void ewald_erfc(V x, V& erfc, V& gaussian) {
   constexpr double kSmall = 0.46875, kLarge = 4.0;
   const V x2 = x * x;
   gaussian = simd_exp(-x2);
-  erfc = gaussian * (ewald_polynomial(x, kMidNum) / ewald_polynomial(x, kMidDen));
+  erfc = gaussian * (ewald_polynomial<kMidNum>(x) / ewald_polynomial<kMidDen>(x));
   const auto small = x < kSmall;
   if (any_lane(small)) {
-    const V erf = x * ewald_polynomial(x2, kSmallNum) / ewald_polynomial(x2, kSmallDen);
+    const V erf = x * ewald_polynomial<kSmallNum>(x2) / ewald_polynomial<kSmallDen>(x2);
     erfc = select(small, 1.0 - erf, erfc);
   }
   const auto large = x > kLarge;
   if (any_lane(large)) {
     const V z = 1.0 / x2;
-    const V tail = (0.56418958354775628695 - z * ewald_polynomial(z, kLargeNum) / ewald_polynomial(z, kLargeDen)) / x;
+    const V tail = (0.56418958354775628695 - z * ewald_polynomial<kLargeNum>(z) / ewald_polynomial<kLargeDen>(z)) / x;
     erfc = select(large, gaussian * tail, erfc);
   }
 }
@@ -97,14 +99,13 @@ HWY_INLINE void ewald_parts(const EwaldRealSpace& e, T r2, T rinv, T& erfc_r, T&
 // erfc(βr)/r = 1/r − β E(z) and (erfc(βr)/r + 2β/√π e^(−z))/r² = 1/r³ − β³ F(z). Fitted for
 // βr ≤ EwaldRealSpace::kRationalRange to each precision's rounding of the bare terms;
 // validation/fit_ewald_corrections.py prints the coefficients and their errors.
-template <class V>
-HWY_INLINE V ewald_rational(V z, const double (&num)[6], const double (&den)[7], const double (&num_double)[11],
-                            const double (&den_double)[11]) {
+template <const auto& kNum, const auto& kDen, const auto& kNumDouble, const auto& kDenDouble, class V>
+HWY_INLINE V ewald_rational(V z) {
   if constexpr (std::is_same_v<V, SimdVec<double>>) {
     const V z2 = z * z;
-    return ewald_polynomial_even_odd(z, z2, num_double) / ewald_polynomial_even_odd(z, z2, den_double);
+    return ewald_polynomial_even_odd<kNumDouble>(z, z2) / ewald_polynomial_even_odd<kDenDouble>(z, z2);
   }
-  return ewald_polynomial(z, num) / ewald_polynomial(z, den);
+  return ewald_polynomial<kNum>(z) / ewald_polynomial<kDen>(z);
 }
 template <class V>
 HWY_INLINE V ewald_energy_correction(V z) {
@@ -120,7 +121,7 @@ HWY_INLINE V ewald_energy_correction(V z) {
       1,                      0.51666181172327652,    0.12751171550861382,    0.01986943082596911,
       0.0021734719951191049,  0.00017508848785885992, 1.0552602475971491e-05, 4.6973450853606598e-07,
       1.4582974290734883e-08, 2.6591977890017528e-10, 6.4143222906089195e-13};
-  return ewald_rational(z, kNum, kDen, kNumDouble, kDenDouble);
+  return ewald_rational<kNum, kDen, kNumDouble, kDenDouble>(z);
 }
 template <class V>
 HWY_INLINE V ewald_force_correction(V z) {
@@ -136,7 +137,7 @@ HWY_INLINE V ewald_force_correction(V z) {
       1,                      0.56755278877921356,    0.15540147129070958,    0.027207110306834391,
       0.0033996948220336737,  0.00032000313686367715, 2.3283044065579796e-05, 1.3167106043690937e-06,
       5.6945831671277397e-08, 1.7748726972919279e-09, 3.5022492462655167e-11};
-  return ewald_rational(z, kNum, kDen, kNumDouble, kDenDouble);
+  return ewald_rational<kNum, kDen, kNumDouble, kDenDouble>(z);
 }
 
 template <EwaldModifier M, class T>

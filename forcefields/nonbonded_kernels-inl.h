@@ -325,7 +325,7 @@ HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Re
 // a float): the lanes the masks drop (r = 0 on the diagonal) stay finite for one max instead of a
 // blend per vector. Their results are discarded; a listed pair closer than 0.6 pm would be clamped,
 // as in GROMACS.
-constexpr double kPairR2Floor = 3.82e-7;  // nm²
+constexpr double kPairR2Floor[] = {3.82e-7};  // nm²
 
 // A pair's term t, computed from x_j − x_i, taken from row i's sums and added to j's.
 template <class V>
@@ -351,7 +351,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
-  const V zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2), r2_floor = V::broadcast(kPairR2Floor);
+  const V zero = V::zero(), cutoff2 = V::broadcast(d.cutoff2), r2_floor = splat<kPairR2Floor>(0, zero);
   ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
@@ -422,7 +422,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
   constexpr int kRowVectors = PairLayout<Real>::kRowVectors;
-  const V zero = V::zero(), r2_floor = V::broadcast(kPairR2Floor);
+  const V zero = V::zero(), r2_floor = splat<kPairR2Floor>(0, zero);
   ListedLanes<Real> listed;
   for (int h = h0; h < h1; ++h) {
     const int e0 = d.half_start[h], e1 = d.half_start[h + 1];
