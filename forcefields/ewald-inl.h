@@ -195,6 +195,16 @@ inline T ewald_excluded_slope(const EwaldRealSpace& e, T r2, T& erf_r, T& gauss)
 }
 template <class T>
 inline void ewald_excluded_energy_force(const EwaldRealSpace& e, T qq, T r2, T& v, T& g) {
+  if constexpr (!std::is_arithmetic_v<T>) {
+    // From the kernels' corrections (ewald_energy_force): erf(βr)/r = β E(z) and the slope −β³ F(z),
+    // without exp, erf or a square root.
+    if (e.rational_corrections) {
+      const T z = r2 * (e.beta * e.beta);
+      v = -(qq * e.beta) * ewald_energy_correction(z);
+      g = -(qq * (e.beta * e.beta * e.beta)) * ewald_force_correction(z);
+      return;
+    }
+  }
   T erf_r, gauss;
   g = qq * ewald_excluded_slope(e, r2, erf_r, gauss);
   v = -(qq * erf_r);
