@@ -123,14 +123,18 @@ struct OrderKernels {
       const int *wx = m.wrap_x + m.cell[0][i], *wy = m.wrap_y + m.cell[1][i];
       Real* base = grid + m.cell[2][i];
       if (!u) {
-        const Real qr = static_cast<Real>(q);
+        // q θ_y,b θ_z once per atom; a line then costs one FMA with θ_x,a.
+        hn::Vec<D> charge_yz[P][V];
+        for (int b = 0; b < P; ++b)
+          for (int j = 0; j < V; ++j)
+            charge_yz[b][j] = hn::Mul(hn::Set(d, static_cast<Real>(q) * ty[b]), hn::LoadU(d, tz + j * L));
         for (int a = 0; a < P; ++a) {
-          const Real va = qr * tx[a];
+          const auto weight_x = hn::Set(d, tx[a]);
+          Real* plane = base + std::size_t(wx[a]) * ny * row;
           for (int b = 0; b < P; ++b) {
-            Real* line = base + (std::size_t(wx[a]) * ny + wy[b]) * row;
-            const auto c = hn::Set(d, va * ty[b]);
+            Real* line = plane + std::size_t(wy[b]) * row;
             for (int j = 0; j < V; ++j)
-              hn::StoreU(hn::MulAdd(c, hn::LoadU(d, tz + j * L), hn::LoadU(d, line + j * L)), d, line + j * L);
+              hn::StoreU(hn::MulAdd(weight_x, charge_yz[b][j], hn::LoadU(d, line + j * L)), d, line + j * L);
           }
         }
       } else {
