@@ -157,6 +157,13 @@ struct OrderKernels {
   }
 
   static Real sum(hn::Vec<D> v) { return hn::GetLane(hn::SumOfLanes(D(), v)); }
+  // Σ_c acc_c weight_c over the V vectors along z.
+  static double z_sums(const hn::Vec<D>* acc, const Real* weight) {
+    const D d;
+    auto total = hn::Zero(d);
+    for (int j = 0; j < V; ++j) total = hn::MulAdd(acc[j], hn::LoadU(d, weight + j * L), total);
+    return static_cast<double>(sum(total));
+  }
 
   // F = −q s ∇(θ_x θ_y θ_z · φ), summed as Σ_a (θ'_x,a Σ_c θ_z,c S_ac, θ_x,a Σ_c θ_z,c D_ac, θ_x,a Σ_c θ'_z,c S_ac)
   // with S_a = Σ_b θ_y,b φ_ab and D_a = Σ_b θ'_y,b φ_ab vectors along z: a line of φ costs one load
@@ -194,16 +201,9 @@ struct OrderKernels {
           along_z[j] = hn::MulAdd(weight_x, value_y[j], along_z[j]);
         }
       }
-      auto fx = hn::Zero(d), fy = hn::Zero(d), fz = hn::Zero(d);
-      for (int j = 0; j < V; ++j) {
-        const auto weight_z = hn::LoadU(d, tz + j * L);
-        fx = hn::MulAdd(along_x[j], weight_z, fx);
-        fy = hn::MulAdd(along_y[j], weight_z, fy);
-        fz = hn::MulAdd(along_z[j], hn::LoadU(d, dz + j * L), fz);
-      }
-      f[3 * i] -= q * m.scale[0] * sum(fx);
-      f[3 * i + 1] -= q * m.scale[1] * sum(fy);
-      f[3 * i + 2] -= q * m.scale[2] * sum(fz);
+      f[3 * i] -= q * m.scale[0] * z_sums(along_x, tz);
+      f[3 * i + 1] -= q * m.scale[1] * z_sums(along_y, tz);
+      f[3 * i + 2] -= q * m.scale[2] * z_sums(along_z, dz);
     }
   }
 
@@ -219,37 +219,50 @@ struct OrderKernels {
       const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;
       const Real *ddx = m.second[0] + at, *ddy = m.second[1] + at, *ddz = m.second[2] + at;
       const int *wx = m.wrap_x + m.cell[0][i], *wy = m.wrap_y + m.cell[1][i];
-      const std::size_t z0 = m.cell[2][i];
-      auto hxx = hn::Zero(d), hyy = hn::Zero(d), hzz = hn::Zero(d), hxy = hn::Zero(d), hxz = hn::Zero(d),
-           hyz = hn::Zero(d), gx = hn::Zero(d), gy = hn::Zero(d), gz = hn::Zero(d);
-      for (int a = 0; a < P; ++a)
+      const Real* base_phi = phi + m.cell[2][i];
+      const Real* base_psi = psi + m.cell[2][i];
+      // As in gather_forces: the y weights along each line, the x weights per a, the z weights last.
+      // Accumulators named by their (x, y) derivatives; their z weights are in the comments.
+      hn::Vec<D> hxx[V], hyy[V], hzz[V], hxy[V], hxz[V], hyz[V], gx[V], gy[V], gz[V];
+      for (int j = 0; j < V; ++j)
+        hxx[j] = hyy[j] = hzz[j] = hxy[j] = hxz[j] = hyz[j] = gx[j] = gy[j] = gz[j] = hn::Zero(d);
+      for (int a = 0; a < P; ++a) {
+        hn::Vec<D> phi_y0[V], phi_y1[V], phi_y2[V], psi_y0[V], psi_y1[V];  // Σ_b θ_y^(k),b of φ, ψ
+        for (int j = 0; j < V; ++j) phi_y0[j] = phi_y1[j] = phi_y2[j] = psi_y0[j] = psi_y1[j] = hn::Zero(d);
+        const std::size_t plane = std::size_t(wx[a]) * ny * row;
         for (int b = 0; b < P; ++b) {
-          const std::size_t line = (std::size_t(wx[a]) * ny + wy[b]) * row + z0;
-          const auto c_xx = hn::Set(d, ddx[a] * ty[b]), c_yy = hn::Set(d, tx[a] * ddy[b]),
-                     c_00 = hn::Set(d, tx[a] * ty[b]), c_xy = hn::Set(d, dx[a] * dy[b]),
-                     c_x0 = hn::Set(d, dx[a] * ty[b]), c_0y = hn::Set(d, tx[a] * dy[b]);
+          const std::size_t line = plane + std::size_t(wy[b]) * row;
+          const auto w0 = hn::Set(d, ty[b]), w1 = hn::Set(d, dy[b]), w2 = hn::Set(d, ddy[b]);
           for (int j = 0; j < V; ++j) {
-            const auto t = hn::LoadU(d, tz + j * L), dt = hn::LoadU(d, dz + j * L);
-            const auto lp = hn::LoadU(d, phi + line + j * L), ls = hn::LoadU(d, psi + line + j * L);
-            const auto p0 = hn::Mul(lp, t), p1 = hn::Mul(lp, dt), s0 = hn::Mul(ls, t);
-            hxx = hn::MulAdd(c_xx, p0, hxx);
-            hyy = hn::MulAdd(c_yy, p0, hyy);
-            hzz = hn::MulAdd(c_00, hn::Mul(lp, hn::LoadU(d, ddz + j * L)), hzz);
-            hxy = hn::MulAdd(c_xy, p0, hxy);
-            hxz = hn::MulAdd(c_x0, p1, hxz);
-            hyz = hn::MulAdd(c_0y, p1, hyz);
-            gx = hn::MulAdd(c_x0, s0, gx);
-            gy = hn::MulAdd(c_0y, s0, gy);
-            gz = hn::MulAdd(c_00, hn::Mul(ls, dt), gz);
+            const auto lp = hn::LoadU(d, base_phi + line + j * L), ls = hn::LoadU(d, base_psi + line + j * L);
+            phi_y0[j] = hn::MulAdd(w0, lp, phi_y0[j]);
+            phi_y1[j] = hn::MulAdd(w1, lp, phi_y1[j]);
+            phi_y2[j] = hn::MulAdd(w2, lp, phi_y2[j]);
+            psi_y0[j] = hn::MulAdd(w0, ls, psi_y0[j]);
+            psi_y1[j] = hn::MulAdd(w1, ls, psi_y1[j]);
           }
         }
+        const auto x0 = hn::Set(d, tx[a]), x1 = hn::Set(d, dx[a]), x2 = hn::Set(d, ddx[a]);
+        for (int j = 0; j < V; ++j) {
+          hxx[j] = hn::MulAdd(x2, phi_y0[j], hxx[j]);  // θ_z
+          hyy[j] = hn::MulAdd(x0, phi_y2[j], hyy[j]);  // θ_z
+          hzz[j] = hn::MulAdd(x0, phi_y0[j], hzz[j]);  // θ''_z
+          hxy[j] = hn::MulAdd(x1, phi_y1[j], hxy[j]);  // θ_z
+          hxz[j] = hn::MulAdd(x1, phi_y0[j], hxz[j]);  // θ'_z
+          hyz[j] = hn::MulAdd(x0, phi_y1[j], hyz[j]);  // θ'_z
+          gx[j] = hn::MulAdd(x1, psi_y0[j], gx[j]);    // θ_z
+          gy[j] = hn::MulAdd(x0, psi_y1[j], gy[j]);    // θ_z
+          gz[j] = hn::MulAdd(x0, psi_y0[j], gz[j]);    // θ'_z
+        }
+      }
       // Grid derivatives to Cartesian ones: each derivative in x_d brings a factor s_d = n_d/L_d.
       const double sx = m.scale[0], sy = m.scale[1], sz = m.scale[2];
       const double vx = sx * u[3 * i], vy = sy * u[3 * i + 1], vz = sz * u[3 * i + 2];
-      const double Hxx = sum(hxx), Hyy = sum(hyy), Hzz = sum(hzz), Hxy = sum(hxy), Hxz = sum(hxz), Hyz = sum(hyz);
-      out[3 * i] += q * sx * (Hxx * vx + Hxy * vy + Hxz * vz + sum(gx));
-      out[3 * i + 1] += q * sy * (Hxy * vx + Hyy * vy + Hyz * vz + sum(gy));
-      out[3 * i + 2] += q * sz * (Hxz * vx + Hyz * vy + Hzz * vz + sum(gz));
+      const double Hxx = z_sums(hxx, tz), Hyy = z_sums(hyy, tz), Hzz = z_sums(hzz, ddz), Hxy = z_sums(hxy, tz),
+                   Hxz = z_sums(hxz, dz), Hyz = z_sums(hyz, dz);
+      out[3 * i] += q * sx * (Hxx * vx + Hxy * vy + Hxz * vz + z_sums(gx, tz));
+      out[3 * i + 1] += q * sy * (Hxy * vx + Hyy * vy + Hyz * vz + z_sums(gy, tz));
+      out[3 * i + 2] += q * sz * (Hxz * vx + Hyz * vy + Hzz * vz + z_sums(gz, dz));
     }
   }
 
