@@ -1,5 +1,6 @@
 // The cluster-pair Verlet list against its brute-force twin: an O(N²) minimum-image pair sum with
-// the same kernels must give the same energies, forces and Hessian–vector products (1e-12) over
+// the same kernels must give the same energies, forces and Hessian–vector products (1e-12; PME's
+// double-precision forces 1e-11, see double_force_tolerance) over
 // many displaced configurations, including displacements just below and just above half the skin,
 // for periodic, small, partly periodic and non-periodic boxes and for unwrapped coordinates.
 #include <gtest/gtest.h>
@@ -147,6 +148,12 @@ Coords random_vectors(int n, std::mt19937_64& rng, double length) {
   return d;
 }
 
+// PME's double-precision kernels subtract a force correction fitted to 7e-12 of the bare term
+// (docs/pme.md) where the reference takes erfc; everything else agrees to rounding.
+double double_force_tolerance(const NonbondedPairTerm& term) {
+  return term.form<EwaldRealSpace>().rational_corrections ? 1e-11 : 1e-12;
+}
+
 // step: evaluate as that step's evaluations.
 void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const Coords& q, const std::string& what,
                                 const Coords* pairs_at = nullptr, TermStepState* step = nullptr) {
@@ -159,11 +166,11 @@ void expect_matches_brute_force(NonbondedPairTerm& term, const System& s, const 
   const Coords hu = testing::hessian_vector(term, q, u, how);
   EXPECT_NEAR(got.energies[0], ref.lj, 1e-12 * ref.lj_scale) << what;
   EXPECT_NEAR(got.energies[1], ref.coulomb, 1e-12 * ref.coulomb_scale) << what;
-  EXPECT_LT(relative_difference(got.f, ref.f), 1e-12) << what;
+  EXPECT_LT(relative_difference(got.f, ref.f), double_force_tolerance(term)) << what;
   EXPECT_LT(relative_difference(hu, ref.hu), 1e-12) << what;
   Coords forces_only = Coords::Zero(3, q.cols());
   term.add_forces(q, forces_only, {}, how);
-  EXPECT_LT(relative_difference(forces_only, ref.f), 1e-12) << what << ", forces only";
+  EXPECT_LT(relative_difference(forces_only, ref.f), double_force_tolerance(term)) << what << ", forces only";
   // Bit for bit: whether the energies are due must not change the trajectory.
   EXPECT_EQ((forces_only - got.f).cwiseAbs().maxCoeff(), 0.0) << what << ", forces only";
 }
@@ -226,7 +233,7 @@ void expect_single_precision_matches_brute_force(NonbondedPairTerm& term, const 
   EXPECT_LT(relative_difference(testing::hessian_vector(term, q, u), ref.hu), 1e-12) << what << ", double again";
   f.setZero();
   term.add_forces(q, f, {});
-  EXPECT_LT(relative_difference(f, ref.f), 1e-12) << what << ", double again";
+  EXPECT_LT(relative_difference(f, ref.f), double_force_tolerance(term)) << what << ", double again";
   // A single-precision product after a double-precision force pass at new positions takes its masks.
   const Coords moved = q + random_vectors(static_cast<int>(q.cols()), rng, 1e-3);
   const Reference moved_ref = brute_force(term, s, moved, u);

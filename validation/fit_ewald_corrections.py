@@ -19,7 +19,7 @@ import mpmath as mp
 import numpy as np
 
 X_MAX = mp.mpf("4.5")  # EwaldRealSpace::kRationalRange
-DEGREES = {"float": (5, 6), "double": (10, 10)}  # (P, Q) for both E and F
+DEGREES = {"float": {"E": (5, 6), "F": (5, 6)}, "double": {"E": (10, 10), "F": (8, 8)}}  # (P, Q)
 mp.mp.dps = 40
 
 
@@ -75,10 +75,10 @@ def even_odd(coefficients, z, real):
 
 
 def main():
-    for precision, (m, n) in DEGREES.items():
+    for precision, degrees in DEGREES.items():
         real = np.float32 if precision == "float" else np.float64
         evaluate = horner if precision == "float" else even_odd
-        for name in ("E", "F"):
+        for name, (m, n) in degrees.items():
             p, q = fit(name, m, n)
             pr, qr = [real(float(v)) for v in p], [real(float(v)) for v in q]
             worst = 0.0
