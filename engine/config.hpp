@@ -27,7 +27,7 @@ struct ForceFieldConfig {
   int pme_order = 4;                     // B-spline interpolation order
   double fourier_spacing = 0.12;         // nm, largest grid spacing when fourier_n gives no size
   std::array<int, 3> fourier_n = {0, 0, 0};  // fourier_nx, _ny, _nz; 0: from fourier_spacing
-  double neighbor_skin = 0.1;                   // nm, buffer of the pair list the kernels run over
+  double neighbor_skin = 0.085;                 // nm, buffer of the pair list the kernels run over
   std::optional<double> neighbor_search_skin;   // nm, buffer of the searched list it is pruned from; unset: automatic
   std::string precision = "double";             // "double" | "mixed" (pair forces in single precision)
 };

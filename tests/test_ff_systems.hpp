@@ -99,6 +99,7 @@ inline ForceFieldConfig pair_config(const std::string& modifier, const std::stri
   c.vdw_switch = (modifier == "force-switch" || modifier == "potential-switch") ? r_switch : 0.0;
   c.coulomb = coulomb;
   c.epsilon_rf = epsilon_rf;
+  c.neighbor_skin = 0.1;  // the list tests' displacements are sized to it, not to the default
   return c;
 }
 
