@@ -35,9 +35,9 @@ template <class F>
 void for_atom_shares(int n, F&& f) {
 #pragma omp parallel if (n >= kParallelMinAtoms)
   {
-    const long t = omp_get_thread_num(), nt = omp_get_num_threads();
-    const int first = static_cast<int>(n * t / nt), end = static_cast<int>(n * (t + 1) / nt);
-    f(first, end - first);
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const int first = share_begin(n, t, nt);
+    f(first, share_begin(n, t + 1, nt) - first);
   }
 }
 

@@ -136,6 +136,7 @@ void NeighborList::build(const Coords& q) {
   compute_bounds();
   search_pairs();
   collect_excluded_pairs();
+  order_shares();
   ++builds_;
   build_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -505,13 +506,46 @@ void NeighborList::collect_excluded_pairs() {
     }
 }
 
+void NeighborList::order_shares() {
+  const int nt = omp_get_max_threads(), n_slots = this->n_slots();
+  share_threads_ = nt;
+  share_slots_by_atom_.resize(n_slots);
+  share_atoms_by_slot_.resize(n_atoms_);
+  std::vector<int> next(nt);
+  const auto owner = [nt](int n, int i) {  // the thread whose share holds item i of n
+    int t = static_cast<int>(static_cast<long>(i) * nt / n);
+    while (share_begin(n, t + 1, nt) <= i) ++t;
+    while (share_begin(n, t, nt) > i) --t;
+    return t;
+  };
+  for (int t = 0; t < nt; ++t) next[t] = share_begin(n_slots, t, nt);
+  for (int a = 0; a < n_atoms_; ++a) {
+    const int s = atom_slot_[a];
+    share_slots_by_atom_[next[owner(n_slots, s)]++] = s;
+  }
+  for (int s = 0; s < n_slots; ++s)
+    if (slot_atom_[s] < 0) share_slots_by_atom_[next[owner(n_slots, s)]++] = s;
+  for (int t = 0; t < nt; ++t) next[t] = share_begin(n_atoms_, t, nt);
+  for (int s = 0; s < n_slots; ++s)
+    if (const int a = slot_atom_[s]; a >= 0) share_atoms_by_slot_[next[owner(n_atoms_, a)]++] = a;
+}
+
+const int* NeighborList::share_slots_by_atom(int threads) const {
+  return threads == share_threads_ ? share_slots_by_atom_.data() : nullptr;
+}
+
+const int* NeighborList::share_atoms_by_slot(int threads) const {
+  return threads == share_threads_ ? share_atoms_by_slot_.data() : nullptr;
+}
+
 template <class Real, class Value>
 void NeighborList::pack(Real* x, Real* y, Real* z, Value&& value) const {
-  // In slot order, so that each thread writes its own run of slots: in atom order the threads'
-  // writes would be scattered over the slots and share cache lines.
-  const int n_slots = static_cast<int>(slot_atom_.size());
-#pragma omp for schedule(static)
-  for (int s = 0; s < n_slots; ++s) {
+  // Each thread writes its own run of slots: in atom order the threads' writes would be scattered
+  // over the slots and share cache lines.
+  const int n_slots = this->n_slots(), t = omp_get_thread_num(), nt = omp_get_num_threads();
+  const int* order = share_slots_by_atom(nt);
+  for (int i = share_begin(n_slots, t, nt), end = share_begin(n_slots, t + 1, nt); i < end; ++i) {
+    const int s = order ? order[i] : i;
     const int a = slot_atom_[s];
     if (a < 0) {
       x[s] = y[s] = z[s] = 0;
@@ -522,6 +556,7 @@ void NeighborList::pack(Real* x, Real* y, Real* z, Value&& value) const {
     y[s] = static_cast<Real>(v[1]);
     z[s] = static_cast<Real>(v[2]);
   }
+#pragma omp barrier
 }
 
 template <class Real>

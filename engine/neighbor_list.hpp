@@ -100,9 +100,17 @@ class NeighborList {
   const std::vector<int>& slot_atom() const { return slot_atom_; }
   const std::vector<int>& atom_slot() const { return atom_slot_; }
 
+  // The threads' shares (share_begin) of the slots and of the atoms, for the thread count of the
+  // last build: thread t's slots listed in the order of their atoms (padding last), and its atoms in
+  // the order of their slots. A thread that gathers from arrays in the other order then reads them
+  // in sequence, a run of lines the prefetcher follows, instead of jumping: at 2 threads half those
+  // lines were last written by the other core. Null for another thread count (plain order then).
+  const int* share_slots_by_atom(int threads) const;
+  const int* share_atoms_by_slot(int threads) const;
+
   // Positions in slot order, each shifted by its atom's build-time image offset (SoA; padding 0).
-  // Both packers are OpenMP worksharing loops: called inside a parallel region they share the
-  // work (and end with a barrier), called outside one they run on the calling thread.
+  // Both packers split the slots in shares and end with a barrier: called inside a parallel region
+  // they share the work, called outside one they run on the calling thread.
   // Real: double, or float for the mixed-precision kernels.
   template <class Real>
   void pack_positions(const Coords& q, Real* x, Real* y, Real* z) const;
@@ -138,6 +146,7 @@ class NeighborList {
   void compute_bounds();
   void search_pairs();
   void collect_excluded_pairs();
+  void order_shares();
   // x, y, z[slot of a] = value(a) for every atom a, and 0 at the padding (the packers' work).
   template <class Real, class Value>
   void pack(Real* x, Real* y, Real* z, Value&& value) const;
@@ -169,6 +178,8 @@ class NeighborList {
 
   int n_clusters_ = 0;
   std::vector<int> slot_atom_, atom_slot_;
+  int share_threads_ = 0;  // the thread count the two orders below are for
+  std::vector<int> share_slots_by_atom_, share_atoms_by_slot_;
   std::vector<float> slot_wrapped_[3];       // wrapped build positions in slot order, for the search
   double search_rounding_ = 0;               // nm: bound on the error of the search's distances
   std::vector<unsigned> cluster_occupancy_;  // per cluster: bit k set if slot k holds an atom

@@ -16,4 +16,7 @@ constexpr double kCoulomb = 138.935458;            // kJ/mol nm e^-2, GROMACS ON
 // starting a team costs more than the work.
 constexpr int kParallelMinAtoms = 256;
 
+// Where thread t's contiguous share of n items begins when nt threads split them (t = nt: n).
+inline int share_begin(int n, int t, int nt) { return static_cast<int>(static_cast<long>(n) * t / nt); }
+
 }  // namespace vimd

@@ -310,9 +310,11 @@ void NonbondedPairTerm::run_parallel(Workspace& w, std::span<const int> visited_
       blocks(t, nt, buffers[s].data(), buffers[s].data() + n, buffers[s].data() + 2 * n);
     });
 #pragma omp barrier
-    // In atom order: out is then written in sequence, and the buffers, just written, are still cached.
-#pragma omp for schedule(static)
-    for (int a = 0; a < n_atoms_; ++a) {
+    // By atom shares, as the per-atom passes that read out next split the atoms, each share in
+    // the order of its slots.
+    const int* order = list.share_atoms_by_slot(nt);
+    for (int i = share_begin(n_atoms_, t, nt), end = share_begin(n_atoms_, t + 1, nt); i < end; ++i) {
+      const int a = order ? order[i] : i;
       const std::size_t s = atom_slot[a];
       double sx = 0, sy = 0, sz = 0;
       for (int k = 0; k < segments && (k < nt || s >= tail_first_slot[k - nt]); ++k) {

@@ -4,6 +4,7 @@
 // many displaced configurations, including displacements just below and just above half the skin,
 // for periodic, small, partly periodic and non-periodic boxes and for unwrapped coordinates.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <bit>
@@ -815,6 +816,48 @@ TEST(NeighborList, LargeListsKeepEveryHalfInPlace) {
     }
   EXPECT_GE(listed, surely_in);
   EXPECT_LE(listed, maybe_in);
+}
+
+// Each thread's share of the slots, listed by atom (padding last), and of the atoms, listed by
+// slot, hold exactly that share; packing with them inside a team gives the serial pack's bits.
+TEST(NeighborList, ThreadSharesListedInTheOtherOrder) {
+  const int saved_threads = omp_get_max_threads(), nt = 3;
+  omp_set_num_threads(nt);
+  auto [system, q] = testing::water_like_system(150, Vec3(2.4, 2.5, 2.6), 52);
+  NeighborList list(system.box, 0.9, 0.1, system.exclusions);
+  list.build(q);
+  omp_set_num_threads(saved_threads);
+  const int* slots = list.share_slots_by_atom(nt);
+  const int* atoms = list.share_atoms_by_slot(nt);
+  ASSERT_NE(slots, nullptr);
+  ASSERT_NE(atoms, nullptr);
+  EXPECT_EQ(list.share_slots_by_atom(nt + 1), nullptr);
+  EXPECT_EQ(list.share_atoms_by_slot(nt - 1), nullptr);
+  const auto& slot_atom = list.slot_atom();
+  const auto& atom_slot = list.atom_slot();
+  for (int t = 0; t < nt; ++t) {
+    SCOPED_TRACE("thread " + std::to_string(t));
+    const int s0 = share_begin(list.n_slots(), t, nt), s1 = share_begin(list.n_slots(), t + 1, nt);
+    std::vector<int> share(slots + s0, slots + s1);
+    // By atom, and the padding (atom −1 here) after the atoms.
+    EXPECT_TRUE(std::is_sorted(share.begin(), share.end(), [&](int a, int b) {
+      const unsigned ka = static_cast<unsigned>(slot_atom[a]), kb = static_cast<unsigned>(slot_atom[b]);
+      return ka < kb;
+    }));
+    std::sort(share.begin(), share.end());
+    for (int i = s0; i < s1; ++i) ASSERT_EQ(share[i - s0], i);
+    const int a0 = share_begin(list.n_atoms(), t, nt), a1 = share_begin(list.n_atoms(), t + 1, nt);
+    std::vector<int> mine(atoms + a0, atoms + a1);
+    EXPECT_TRUE(std::is_sorted(mine.begin(), mine.end(), [&](int a, int b) { return atom_slot[a] < atom_slot[b]; }));
+    std::sort(mine.begin(), mine.end());
+    for (int i = a0; i < a1; ++i) ASSERT_EQ(mine[i - a0], i);
+  }
+  const int n = list.n_slots();
+  std::vector<double> serial(3 * n, -1), team(3 * n, -1);
+  list.pack_positions(q, serial.data(), serial.data() + n, serial.data() + 2 * n);
+#pragma omp parallel num_threads(nt)
+  list.pack_positions(q, team.data(), team.data() + n, team.data() + 2 * n);
+  EXPECT_EQ(serial, team);
 }
 
 TEST(NeighborList, RejectsBoxesShorterThanTwiceTheCutoff) {
