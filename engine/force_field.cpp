@@ -63,7 +63,11 @@ void ForceField::place_sites(Coords& q, Coords& v) const {
 
 void ForceField::evaluate(const Coords& q_atoms, Forces& out, bool energies, const Evaluation& how) {
   const Coords& q = with_sites(q_atoms);
-  set_zero(out.f, q.cols());
+  const bool first_writes = !terms_.empty() && terms_.front()->writes_forces();
+  if (first_writes)
+    out.f.resize(3, q.cols());
+  else
+    set_zero(out.f, q.cols());
   out.terms.assign(names_.size(), energies ? 0.0 : std::numeric_limits<double>::quiet_NaN());
   ForceMasks* keep = how.keep_masks ? &out.masks : nullptr;
   if (keep) keep->terms_.resize(terms_.size());
@@ -71,8 +75,10 @@ void ForceField::evaluate(const Coords& q_atoms, Forces& out, bool energies, con
   for (std::size_t k = 0; k < terms_.size(); ++k) {
     const std::size_t n = name_counts_[k];
     if (keep) keep->terms_[k].list_id = -1;
+    TermEvaluation term_how = for_term(k, how, keep);
+    term_how.forces_unset = k == 0 && first_writes;
     terms_[k]->add_forces(q, out.f, energies ? std::span<double>(out.terms).subspan(offset, n) : std::span<double>(),
-                          for_term(k, how, keep));
+                          term_how);
     offset += n;
   }
   if (sites_) sites_->spread(q, out.f);

@@ -109,6 +109,9 @@ struct TermEvaluation {
   TermStepState* step = nullptr;
   TermMasks* keep_masks = nullptr;
   const TermMasks* masks = nullptr;
+  // f is sized but holds nothing yet: a term whose writes_forces() is true sets every atom's force
+  // instead of adding to it, which spares the evaluation a pass that zeroes f.
+  bool forces_unset = false;
 };
 
 class ForceTerm {
@@ -125,6 +128,8 @@ class ForceTerm {
   // keeps them valid for q here.
   virtual void add_forces(const Coords& q, Coords& f, std::span<double> energies,
                           const TermEvaluation& how = {}) = 0;
+  // Whether add_forces honours TermEvaluation::forces_unset.
+  virtual bool writes_forces() const { return false; }
   // Adds ∇²V(q) u to out.
   virtual void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how = {}) = 0;
   // add_forces as a fresh term would compute them at q, changing nothing of this term: an

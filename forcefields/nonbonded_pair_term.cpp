@@ -273,7 +273,7 @@ void NonbondedPairTerm::refresh_single_precision_layout(Workspace& w) const {
 template <class Real, class Pack, class Halves, class Blocks>
 void NonbondedPairTerm::run_parallel(Workspace& w, std::span<const int> visited_half_start,
                                      std::vector<std::vector<Real>>& buffers, Pack&& pack, Halves&& halves,
-                                     Blocks&& blocks, Coords& out) const {
+                                     Blocks&& blocks, Coords& out, bool write) const {
   const NeighborList& list = w.lists.searched();
   const int n = list.n_slots();
   const std::size_t n_entries = visited_half_start.empty() ? 0 : visited_half_start.back();
@@ -323,9 +323,15 @@ void NonbondedPairTerm::run_parallel(Workspace& w, std::span<const int> visited_
         sy += b[n + s];
         sz += b[2 * n + s];
       }
-      out(0, a) += sx;
-      out(1, a) += sy;
-      out(2, a) += sz;
+      if (write) {
+        out(0, a) = sx;
+        out(1, a) = sy;
+        out(2, a) = sz;
+      } else {
+        out(0, a) += sx;
+        out(1, a) += sy;
+        out(2, a) += sz;
+      }
     }
   }
 }
@@ -336,29 +342,30 @@ void NonbondedPairTerm::add_forces(const Coords& q, Coords& f, std::span<double>
   Step* step = step_of(how.step);
   keep_lists(run_, q, step);
   const Visit v = visit(run_, step);
-  forces(run_, v, q, f, energies, mixed_ || how.single_precision, v.fixed ? nullptr : how.keep_masks);
+  forces(run_, v, q, f, energies, mixed_ || how.single_precision, v.fixed ? nullptr : how.keep_masks,
+         how.forces_unset);
 }
 
 void NonbondedPairTerm::add_single_point(const Coords& q, Coords& f, std::span<double> energies) const {
   Workspace w = fresh_workspace();
   keep_lists(w, q, nullptr);
-  forces(w, visit(w, nullptr), q, f, energies, mixed_, nullptr);
+  forces(w, visit(w, nullptr), q, f, energies, mixed_, nullptr, false);
 }
 
 void NonbondedPairTerm::forces(Workspace& w, const Visit& visit, const Coords& q, Coords& f,
-                               std::span<double> energies, bool single, TermMasks* keep) const {
+                               std::span<double> energies, bool single, TermMasks* keep, bool write) const {
   const bool with_energies = !energies.empty();
   if (single)
     add_pair_forces<float>(w, visit, simd::single_force_kernel(forms_, with_energies, keep != nullptr), q, f, energies,
-                           keep);
+                           keep, write);
   else
     add_pair_forces<double>(w, visit, simd::force_kernel(forms_, with_energies, keep != nullptr), q, f, energies,
-                            keep);
+                            keep, write);
 }
 
 template <class Real, class Kernel>
 void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel pair_kernel, const Coords& q,
-                                        Coords& f, std::span<double> energies, TermMasks* keep) const {
+                                        Coords& f, std::span<double> energies, TermMasks* keep, bool write) const {
   SlotArrays<Real>& slots = w.template slot_arrays<Real>();
   const PairViewOf<Real> view = pair_view<Real>(w, visit);
   const NeighborList& list = w.lists.searched();
@@ -402,7 +409,7 @@ void NonbondedPairTerm::add_pair_forces(Workspace& w, const Visit& visit, Kernel
           for (int k = 0; k < kPairEnergies; ++k) block[k][b] += energies_of_block[k];
         });
       },
-      f);
+      f, write);
   if (energies.empty()) return;
   for (int k = 0; k < kPairEnergies; ++k) {
     double sum = self_energy_[k];

@@ -39,6 +39,7 @@ class NonbondedPairTerm : public ForceTerm {
 
   std::vector<std::string> energy_names() const override { return {"lj", "coulomb"}; }
   void add_forces(const Coords& q, Coords& f, std::span<double> energies, const TermEvaluation& how = {}) override;
+  bool writes_forces() const override { return true; }
   void add_hessian_vector(const Coords& q, const Coords& u, Coords& out, const TermEvaluation& how = {}) override;
   void add_single_point(const Coords& q, Coords& f, std::span<double> energies) const override;
   void start_step(const Coords& q, std::unique_ptr<TermStepState>& state) override;
@@ -123,22 +124,23 @@ class NonbondedPairTerm : public ForceTerm {
   void keep_single_precision(Workspace& w) const;
   void refresh_layout(Workspace& w) const;  // slot-ordered charges and types after a search
   void refresh_single_precision_layout(Workspace& w) const;  // their single-precision copies
+  // write: set f to the forces (else add them).
   void forces(Workspace& w, const Visit& visit, const Coords& q, Coords& f, std::span<double> energies, bool single,
-              TermMasks* keep) const;
+              TermMasks* keep, bool write) const;
   template <class Real>
   PairViewOf<Real> pair_view(Workspace& w, const Visit& visit) const;
   template <class Real, class Kernel>
   void add_pair_forces(Workspace& w, const Visit& visit, Kernel pair_kernel, const Coords& q, Coords& f,
-                       std::span<double> energies, TermMasks* keep) const;
+                       std::span<double> energies, TermMasks* keep, bool write) const;
   template <class Real, class Kernel>
   void add_pair_hessian_vector(Workspace& w, const Visit& visit, Kernel pair_kernel, const Coords& q, const Coords& u,
                                Coords& out, const TermMasks* masks) const;
   // pack(), then halves(h0, h1, x, y, z) for the list's segments (pair_loop_segments), each into a
   // buffer of its own, and blocks(t, nt, x, y, z) for thread t's excluded-pair blocks into its
-  // home segment's; then out += the buffers' sums in segment order.
+  // home segment's; then out += the buffers' sums in segment order (out = them: write).
   template <class Real, class Pack, class Halves, class Blocks>
   void run_parallel(Workspace& w, std::span<const int> visited_half_start, std::vector<std::vector<Real>>& buffers,
-                    Pack&& pack, Halves&& halves, Blocks&& blocks, Coords& out) const;
+                    Pack&& pack, Halves&& halves, Blocks&& blocks, Coords& out, bool write = false) const;
   void check_atoms(const Coords& q) const;
 
   int n_atoms_;

@@ -3,6 +3,8 @@
 // forces, for every LJ modifier and Coulomb kind.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -954,6 +956,25 @@ TEST(ForceFieldRegistry, BuildsAllTermsWithTheirEnergyNames) {
   for (const auto& term : field->terms()) expected += hessian_vector(*term, q, u);
   EXPECT_LT(relative_difference(hu, expected), 1e-14);
   EXPECT_EQ(field->work().neighbor_rebuilds, 1);
+}
+
+// The first term (the pair term) sets the forces instead of adding to zeros, so whatever the output
+// held before must not show; the later terms add theirs, as onto zeros.
+TEST(ForceField, ForcesAreTheTermsSumWhateverTheOutputHeld) {
+  auto [system, q] = testing::water_like_system(100, Vec3(2.2, 2.2, 2.2), 17);
+  auto field = make_force_field(system, testing::pair_config("potential-shift", "reaction-field", 0.0));
+  ASSERT_TRUE(field->terms().front()->writes_forces());
+  for (bool energies : {true, false}) {
+    Forces forces;
+    forces.f.setConstant(3, q.cols(), std::numeric_limits<double>::quiet_NaN());
+    if (energies)
+      field->compute(q, forces);
+    else
+      field->compute_forces(q, forces);
+    Coords expected = Coords::Zero(3, q.cols());
+    for (const auto& term : field->terms()) term->add_forces(q, expected, {});
+    EXPECT_EQ((forces.f - expected).cwiseAbs().maxCoeff(), 0.0) << "energies " << energies;
+  }
 }
 
 // An observation (single_point) is what a fresh field computes, and leaves the field as it was:
