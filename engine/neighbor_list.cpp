@@ -511,23 +511,22 @@ void NeighborList::order_shares() {
   share_threads_ = nt;
   share_slots_by_atom_.resize(n_slots);
   share_atoms_by_slot_.resize(n_atoms_);
-  std::vector<int> next(nt);
-  const auto owner = [nt](int n, int i) {  // the thread whose share holds item i of n
-    int t = static_cast<int>(static_cast<long>(i) * nt / n);
-    while (share_begin(n, t + 1, nt) <= i) ++t;
-    while (share_begin(n, t, nt) > i) --t;
-    return t;
+  // owner[i]: the thread whose share holds item i; next[t]: where thread t's list goes on.
+  std::vector<int> owner, next(nt);
+  const auto start_shares = [&](int n) {
+    owner.resize(n);
+    for (int t = 0; t < nt; ++t) {
+      next[t] = share_begin(n, t, nt);
+      std::fill(owner.begin() + next[t], owner.begin() + share_begin(n, t + 1, nt), t);
+    }
   };
-  for (int t = 0; t < nt; ++t) next[t] = share_begin(n_slots, t, nt);
-  for (int a = 0; a < n_atoms_; ++a) {
-    const int s = atom_slot_[a];
-    share_slots_by_atom_[next[owner(n_slots, s)]++] = s;
-  }
+  start_shares(n_slots);
+  for (int a = 0; a < n_atoms_; ++a) share_slots_by_atom_[next[owner[atom_slot_[a]]]++] = atom_slot_[a];
   for (int s = 0; s < n_slots; ++s)
-    if (slot_atom_[s] < 0) share_slots_by_atom_[next[owner(n_slots, s)]++] = s;
-  for (int t = 0; t < nt; ++t) next[t] = share_begin(n_atoms_, t, nt);
+    if (slot_atom_[s] < 0) share_slots_by_atom_[next[owner[s]]++] = s;
+  start_shares(n_atoms_);
   for (int s = 0; s < n_slots; ++s)
-    if (const int a = slot_atom_[s]; a >= 0) share_atoms_by_slot_[next[owner(n_atoms_, a)]++] = a;
+    if (const int a = slot_atom_[s]; a >= 0) share_atoms_by_slot_[next[owner[a]]++] = a;
 }
 
 const int* NeighborList::share_slots_by_atom(int threads) const {
