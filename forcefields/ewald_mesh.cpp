@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -147,12 +148,14 @@ class PrecisionMesh final : public EwaldMesh {
 
   double add_forces(const Coords& q, Coords& f, bool energy) override {
     in_parallel([&](int t, int nt) {
-      const Share atoms = share_of(n_atoms_, t, nt);
-      kernels_.splines(atoms_, q.data(), false, atoms.begin, atoms.end);
+      splines(q, false, t, nt);
       spread(grid_[0], nullptr, t, nt);
       partial_[t] = convolve(grid_[0], energy, t, nt);
 #pragma omp barrier
-      kernels_.gather_forces(atoms_, grid_[0].real(), atoms.begin, atoms.end, f.data());
+      for (int k = 0; k < nt; ++k) {
+        const auto& atoms = slab_atoms(k, t, nt);
+        kernels_.gather_forces(atoms_, grid_[0].real(), atoms.data(), static_cast<int>(atoms.size()), f.data());
+      }
     });
     phi_at_ = q;
     phi_ready_ = true;
@@ -166,8 +169,7 @@ class PrecisionMesh final : public EwaldMesh {
     // pattern) takes its potential grid: the same arithmetic, so the same result.
     const bool reuse = phi_ready_ && phi_at_.cols() == q.cols() && phi_at_ == q;
     in_parallel([&](int t, int nt) {
-      const Share atoms = share_of(n_atoms_, t, nt);
-      kernels_.splines(atoms_, q.data(), true, atoms.begin, atoms.end);
+      splines(q, true, t, nt);
       if (!reuse) {
         spread(grid_[0], nullptr, t, nt);
         convolve(grid_[0], false, t, nt);
@@ -175,7 +177,11 @@ class PrecisionMesh final : public EwaldMesh {
       spread(grid_[1], &u, t, nt);
       convolve(grid_[1], false, t, nt);
 #pragma omp barrier
-      kernels_.gather_hessian(atoms_, grid_[0].real(), grid_[1].real(), u.data(), atoms.begin, atoms.end, out.data());
+      for (int k = 0; k < nt; ++k) {
+        const auto& atoms = slab_atoms(k, t, nt);
+        kernels_.gather_hessian(atoms_, grid_[0].real(), grid_[1].real(), u.data(), atoms.data(),
+                                static_cast<int>(atoms.size()), out.data());
+      }
     });
     phi_at_ = q;
     phi_ready_ = true;
@@ -187,34 +193,78 @@ class PrecisionMesh final : public EwaldMesh {
   template <class F>
   void in_parallel(F&& f) {
     const int threads = threaded_ ? omp_get_max_threads() : 1;
-    const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
-    if (static_cast<int>(spread_.size()) < threads) spread_.resize(threads, std::vector<Real>(size));
+    if (slab_threads_ != threads) make_slabs(threads);
     partial_.assign(threads, 0.0);
     for (auto& grid : grid_) grid.prepare(threads);
 #pragma omp parallel num_threads(threads)
     f(omp_get_thread_num(), omp_get_num_threads());
   }
 
-  // Thread t's atoms' charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on
-  // its own grid; after a barrier, the thread's x planes of the threads' grids summed in thread
-  // order, each row's wrap-around folded back, and transformed in y and z.
-  void spread(FftGrid<Real>& grid, const Coords* u, int t, int nt) {
-    const std::size_t size = std::size_t(s_->n[0]) * s_->n[1] * s_->row;
-    const int p = s_->order, ny = s_->n[1], nz = s_->n[2], row = s_->row;
-    Real* g = spread_[t].data();
-    std::fill(g, g + size, Real(0));
+  // Thread t owns the x planes the transforms give it (FftGrid::planes) and spreads the atoms whose
+  // first plane is one of them, as GROMACS's PME does: its grid is its planes and the p − 1 after,
+  // and the sum of the grids reads the neighbours' last planes only. Spreading by atom number
+  // instead filled a whole grid per thread and summed all of them.
+  void make_slabs(int nt) {
+    const int nx = s_->n[0], p = s_->order;
+    const std::size_t plane = std::size_t(s_->n[1]) * s_->row;
+    owner_.resize(nx);
+    local_x_.assign(nt, std::vector<int>(nx + p));
+    first_plane_.resize(nt);
+    spread_.resize(nt);
+    for (int t = 0; t < nt; ++t) {
+      const Share planes = share_of(nx, t, nt);
+      for (int x = planes.begin; x < planes.end; ++x) owner_[x] = t;
+      for (int i = 0; i < nx + p; ++i) local_x_[t][i] = i - planes.begin;  // read for i ≥ planes.begin only
+      first_plane_[t] = planes.begin;
+      spread_[t].resize((planes.end - planes.begin + p - 1) * plane);
+    }
+    slab_atoms_.resize(std::size_t(nt) * nt);
+    slab_threads_ = nt;
+  }
+
+  // The charged atoms of thread k's share whose first x plane is thread t's.
+  std::vector<int>& slab_atoms(int k, int t, int nt) { return slab_atoms_[std::size_t(k) * nt + t]; }
+
+  // Cells and weights of the thread's share of the atoms, which it then sorts by slab.
+  void splines(const Coords& q, bool second, int t, int nt) {
     const Share atoms = share_of(n_atoms_, t, nt);
-    kernels_.spread(atoms_, u ? u->data() : nullptr, atoms.begin, atoms.end, g);
+    kernels_.splines(atoms_, q.data(), second, atoms.begin, atoms.end);
+    for (int k = 0; k < nt; ++k) slab_atoms(t, k, nt).clear();
+    const int* cell_x = cell_[0].data();
+    for (int i = atoms.begin; i < atoms.end; ++i)
+      if (s_->charge[i] != 0) slab_atoms(t, owner_[cell_x[i]], nt).push_back(i);
 #pragma omp barrier
-    Real* out = grid.real();
+  }
+
+  // Thread t's atoms' charges (u null) or their directional derivative Σ_j q_j ∇θ_j · u_j spread on
+  // its own grid; after a barrier, the threads' grids summed (in thread order) on its x planes,
+  // each row's wrap-around folded back, and the planes transformed in y and z.
+  void spread(FftGrid<Real>& grid, const Coords* u, int t, int nt) {
+    const int nx = s_->n[0], p = s_->order, ny = s_->n[1], nz = s_->n[2], row = s_->row;
+    const std::size_t plane = std::size_t(ny) * row;
+    std::fill(spread_[t].begin(), spread_[t].end(), Real(0));
+    MeshAtoms<Real> slab = atoms_;
+    slab.wrap_x = local_x_[t].data();
+    for (int k = 0; k < nt; ++k) {
+      const auto& atoms = slab_atoms(k, t, nt);
+      kernels_.spread(slab, u ? u->data() : nullptr, atoms.data(), static_cast<int>(atoms.size()), spread_[t].data());
+    }
+#pragma omp barrier
     const Share planes = grid.planes(t, nt);
-    for (int r = planes.begin * ny; r < planes.end * ny; ++r) {
-      Real* o = out + std::size_t(r) * row;
-      for (int z = 0; z < nz; ++z) o[z] = 0;
+    for (int x = planes.begin; x < planes.end; ++x) {
+      Real* out = grid.real() + x * plane;
+      for (int y = 0; y < ny; ++y) std::fill(out + y * row, out + y * row + nz, Real(0));
       for (int k = 0; k < nt; ++k) {
-        const Real* in = spread_[k].data() + std::size_t(r) * row;
-        for (int z = 0; z < nz; ++z) o[z] += in[z];
-        for (int z = 0; z < p - 1; ++z) o[z] += in[nz + z];
+        const int extent = static_cast<int>(spread_[k].size() / plane);
+        for (int local = (x - first_plane_[k] + nx) % nx; local < extent; local += nx) {
+          const Real* in = spread_[k].data() + local * plane;
+          for (int y = 0; y < ny; ++y) {
+            Real* o = out + y * row;
+            const Real* i = in + y * row;
+            for (int z = 0; z < nz; ++z) o[z] += i[z];
+            for (int z = 0; z < p - 1; ++z) o[z] += i[nz + z];
+          }
+        }
       }
     }
     grid.forward_planes(t, nt);
@@ -262,7 +312,13 @@ class PrecisionMesh final : public EwaldMesh {
   std::array<std::vector<Real>, 3> value_, first_, second_;  // per dimension, spline_stride(p) per atom
   std::array<std::vector<int>, 2> wrap_;                     // i mod n for x and y, i < n + p
   MeshAtoms<Real> atoms_;                                    // the kernels' view of the above
-  std::vector<std::vector<Real>> spread_;                    // per thread
+  // Slabs for slab_threads_ threads (make_slabs): each x plane's thread, each thread's first plane,
+  // its local plane of x point i and its spreading grid, and the atoms sorted by slab.
+  int slab_threads_ = 0;
+  std::vector<int> owner_, first_plane_;
+  std::vector<std::vector<int>> local_x_;
+  std::vector<std::vector<Real>> spread_;
+  std::vector<std::vector<int>> slab_atoms_;
   std::vector<double> partial_;                              // per thread
   FftGrid<Real> grid_[2];
   bool threaded_;

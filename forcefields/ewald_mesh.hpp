@@ -9,10 +9,11 @@
 // periodic in x, y and z; positions may be unwrapped. docs/pme.md has the formulas in full.
 //
 // The per-atom loops are SIMD kernels per target and order (ewald_mesh_kernels.hpp).
-// Threads: one parallel region per pass — spreading over atom chunks into per-thread grids summed
-// in thread order, transforms split into x planes and x columns per thread (fft_grid.hpp;
-// FFTW_ESTIMATE plans: reproducible run to run), gathering over atoms. Results are bitwise
-// reproducible for a given thread count and differ between thread counts by round-off only.
+// Threads: one parallel region per pass. Each thread owns a slab of x planes (the transforms'
+// split, fft_grid.hpp; FFTW_ESTIMATE plans: reproducible run to run) and spreads and gathers the
+// atoms whose splines start there, onto a grid of its slab and the p − 1 planes after, summed in
+// thread order. Results are bitwise reproducible for a given thread count and differ between
+// thread counts by round-off only.
 // Precision: double, or float grids and transforms (as GROMACS's mixed build) with mixed_precision
 // or TermEvaluation::single_precision; energies summed in double either way.
 #include <array>

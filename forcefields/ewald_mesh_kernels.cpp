@@ -111,12 +111,12 @@ struct OrderKernels {
     hn::StoreInterleaved4(w[0].v, w[1].v, w[2].v, last, dw, out);
   }
 
-  static void spread(const MeshAtoms<Real>& m, const double* u, int begin, int end, Real* grid) {
+  static void spread(const MeshAtoms<Real>& m, const double* u, const int* atoms, int count, Real* grid) {
     const D d;
     const int ny = m.n[1], row = m.row;
-    for (int i = begin; i < end; ++i) {
+    for (int k = 0; k < count; ++k) {
+      const int i = atoms[k];
       const double q = m.charge[i];
-      if (q == 0) continue;
       const std::size_t at = std::size_t(i) * S;
       const Real *tx = m.value[0] + at, *ty = m.value[1] + at, *tz = m.value[2] + at;
       const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;
@@ -168,12 +168,12 @@ struct OrderKernels {
   // F = −q s ∇(θ_x θ_y θ_z · φ), summed as Σ_a (θ'_x,a Σ_c θ_z,c S_ac, θ_x,a Σ_c θ_z,c D_ac, θ_x,a Σ_c θ'_z,c S_ac)
   // with S_a = Σ_b θ_y,b φ_ab and D_a = Σ_b θ'_y,b φ_ab vectors along z: a line of φ costs one load
   // and two FMAs, and the products of weights are taken per a, not per line.
-  static void gather_forces(const MeshAtoms<Real>& m, const Real* phi, int begin, int end, double* f) {
+  static void gather_forces(const MeshAtoms<Real>& m, const Real* phi, const int* atoms, int count, double* f) {
     const D d;
     const int ny = m.n[1], row = m.row;
-    for (int i = begin; i < end; ++i) {
+    for (int k = 0; k < count; ++k) {
+      const int i = atoms[k];
       const double q = m.charge[i];
-      if (q == 0) continue;
       const std::size_t at = std::size_t(i) * S;
       const Real *tx = m.value[0] + at, *ty = m.value[1] + at, *tz = m.value[2] + at;
       const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;
@@ -207,13 +207,13 @@ struct OrderKernels {
     }
   }
 
-  static void gather_hessian(const MeshAtoms<Real>& m, const Real* phi, const Real* psi, const double* u, int begin,
-                             int end, double* out) {
+  static void gather_hessian(const MeshAtoms<Real>& m, const Real* phi, const Real* psi, const double* u,
+                             const int* atoms, int count, double* out) {
     const D d;
     const int ny = m.n[1], row = m.row;
-    for (int i = begin; i < end; ++i) {
+    for (int k = 0; k < count; ++k) {
+      const int i = atoms[k];
       const double q = m.charge[i];
-      if (q == 0) continue;
       const std::size_t at = std::size_t(i) * S;
       const Real *tx = m.value[0] + at, *ty = m.value[1] + at, *tz = m.value[2] + at;
       const Real *dx = m.first[0] + at, *dy = m.first[1] + at, *dz = m.first[2] + at;

@@ -26,7 +26,7 @@ struct MeshAtoms {
   std::array<int*, 3> cell;     // per atom
   // Per atom, spline_stride(p) each: θ, θ', θ'' in x, y, z (θ'' only for products).
   std::array<Real*, 3> value, first, second;
-  const int* wrap_x;  // i mod nx, i < nx + p
+  const int* wrap_x;  // the grid plane of x point i < nx + p (i mod nx on the whole grid)
   const int* wrap_y;
 };
 
@@ -34,13 +34,14 @@ template <class Real>
 struct MeshKernels {
   // Cells and weights of atoms [begin, end) at positions q (wrapped into the box).
   void (*splines)(const MeshAtoms<Real>&, const double* q, bool second, int begin, int end);
-  // Adds the charges of atoms [begin, end) to grid, or (u given) Σ q_j ∇θ_j · u_j.
-  void (*spread)(const MeshAtoms<Real>&, const double* u, int begin, int end, Real* grid);
+  // The next three take the atoms listed, count of them, in any order.
+  // Adds their charges to grid, or (u given) Σ q_j ∇θ_j · u_j; their x planes are wrap_x's.
+  void (*spread)(const MeshAtoms<Real>&, const double* u, const int* atoms, int count, Real* grid);
   // f_i −= q_i Σ_g ∇θ_i φ(g).
-  void (*gather_forces)(const MeshAtoms<Real>&, const Real* phi, int begin, int end, double* f);
+  void (*gather_forces)(const MeshAtoms<Real>&, const Real* phi, const int* atoms, int count, double* f);
   // out_i += q_i Σ_g (∇∇θ_i u_i) φ(g) + q_i Σ_g ∇θ_i ψ(g).
-  void (*gather_hessian)(const MeshAtoms<Real>&, const Real* phi, const Real* psi, const double* u, int begin, int end,
-                         double* out);
+  void (*gather_hessian)(const MeshAtoms<Real>&, const Real* phi, const Real* psi, const double* u, const int* atoms,
+                         int count, double* out);
 };
 
 // The kernels of order p (3..12) for the best target of this CPU (or the one simd::use_target chose).
