@@ -197,7 +197,14 @@ class PrecisionMesh final : public EwaldMesh {
     partial_.assign(threads, 0.0);
     for (auto& grid : grid_) grid.prepare(threads);
 #pragma omp parallel num_threads(threads)
-    f(omp_get_thread_num(), omp_get_num_threads());
+    {
+      const int nt = omp_get_num_threads();
+      if (nt != threads) {  // fewer than asked for (a nested region): every thread of the team sees it
+#pragma omp single
+        make_slabs(nt);
+      }
+      f(omp_get_thread_num(), nt);
+    }
   }
 
   // Thread t owns the x planes the transforms give it (FftGrid::planes) and spreads the atoms whose

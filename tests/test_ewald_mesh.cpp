@@ -275,6 +275,23 @@ TEST(EwaldMesh, ReproducibleAndThreadCountOnlyChangesRoundoff) {
     EXPECT_LT(relative_difference(r.f, first.f), 1e-13) << t;
     EXPECT_LT(relative_difference(hessian_vector(term, q, u), first_hu), 1e-13) << t;
   }
+
+  // Called inside a parallel region, without nested parallelism: the mesh asks for 3 threads and
+  // gets 1, which it must compute with as one thread does.
+  omp_set_num_threads(1);
+  const auto one_thread = evaluate(term, q);
+  omp_set_num_threads(3);
+  const int levels = omp_get_max_active_levels();
+  omp_set_max_active_levels(1);
+  testing::TermResult nested;
+#pragma omp parallel num_threads(2)
+  {
+#pragma omp single
+    nested = evaluate(term, q);
+  }
+  omp_set_max_active_levels(levels);
+  EXPECT_EQ(nested.energy, one_thread.energy);
+  EXPECT_EQ(nested.f, one_thread.f);
   omp_set_num_threads(threads);
 }
 
