@@ -511,14 +511,11 @@ void NeighborList::order_shares() {
   share_threads_ = nt;
   share_slots_by_atom_.resize(n_slots);
   share_atoms_by_slot_.resize(n_atoms_);
-  // owner[i]: the thread whose share holds item i; next[t]: where thread t's list goes on.
+  // next[t]: where thread t's list goes on.
   std::vector<int> owner, next(nt);
   const auto start_shares = [&](int n) {
-    owner.resize(n);
-    for (int t = 0; t < nt; ++t) {
-      next[t] = share_begin(n, t, nt);
-      std::fill(owner.begin() + next[t], owner.begin() + share_begin(n, t + 1, nt), t);
-    }
+    share_owners(n, nt, owner);
+    for (int t = 0; t < nt; ++t) next[t] = share_begin(n, t, nt);
   };
   start_shares(n_slots);
   for (int a = 0; a < n_atoms_; ++a) share_slots_by_atom_[next[owner[atom_slot_[a]]]++] = atom_slot_[a];

@@ -1,6 +1,8 @@
 #pragma once
 // Basic numeric types. GROMACS units throughout: nm, ps, amu, kJ/mol, e, K.
 #include <Eigen/Dense>
+#include <algorithm>
+#include <vector>
 
 namespace vimd {
 
@@ -18,5 +20,12 @@ constexpr int kParallelMinAtoms = 256;
 
 // Where thread t's contiguous share of n items begins when nt threads split them (t = nt: n).
 inline int share_begin(int n, int t, int nt) { return static_cast<int>(static_cast<long>(n) * t / nt); }
+
+// owner[i]: the thread whose share (share_begin) holds item i of n.
+inline void share_owners(int n, int nt, std::vector<int>& owner) {
+  owner.resize(n);
+  for (int t = 0; t < nt; ++t)
+    std::fill(owner.begin() + share_begin(n, t, nt), owner.begin() + share_begin(n, t + 1, nt), t);
+}
 
 }  // namespace vimd

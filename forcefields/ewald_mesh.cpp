@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "engine/types.hpp"
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh_kernels.hpp"
 #include "forcefields/fft_grid.hpp"
@@ -209,18 +210,17 @@ class PrecisionMesh final : public EwaldMesh {
 
   // Thread t owns the x planes the transforms give it (FftGrid::planes) and spreads the atoms whose
   // first plane is one of them, as GROMACS's PME does: its grid is its planes and the p − 1 after,
-  // and the sum of the grids reads the neighbours' last planes only. Spreading by atom number
-  // instead filled a whole grid per thread and summed all of them.
+  // so the sum of the grids reads only the neighbours' last planes, where atoms taken by number
+  // would put charges all over every thread's grid.
   void make_slabs(int nt) {
     const int nx = s_->n[0], p = s_->order;
     const std::size_t plane = std::size_t(s_->n[1]) * s_->row;
-    owner_.resize(nx);
+    share_owners(nx, nt, owner_);  // FftGrid::planes' split
     local_x_.assign(nt, std::vector<int>(nx + p));
     first_plane_.resize(nt);
     spread_.resize(nt);
     for (int t = 0; t < nt; ++t) {
       const Share planes = share_of(nx, t, nt);
-      for (int x = planes.begin; x < planes.end; ++x) owner_[x] = t;
       for (int i = 0; i < nx + p; ++i) local_x_[t][i] = i - planes.begin;  // read for i ≥ planes.begin only
       first_plane_[t] = planes.begin;
       spread_[t].resize((planes.end - planes.begin + p - 1) * plane);
