@@ -17,6 +17,8 @@
 #include <memory>
 #include <vector>
 
+#include "engine/types.hpp"
+
 namespace vimd {
 
 template <class Real>
@@ -78,11 +80,12 @@ class FftwBuffer {
   std::unique_ptr<T[], Free> data_;
 };
 
-// [begin, end): thread t's share of n items among nt threads, in order.
+// [begin, end): thread t's share of n items among nt threads, in order (share_begin's split, so
+// that share_owners agrees with it).
 struct Share {
   int begin, end;
 };
-inline Share share_of(int n, int t, int nt) { return {int(long(n) * t / nt), int(long(n) * (t + 1) / nt)}; }
+inline Share share_of(int n, int t, int nt) { return {share_begin(n, t, nt), share_begin(n, t + 1, nt)}; }
 
 // A real grid and its transform. Every thread of a parallel region calls each step in turn, with
 // a barrier wherever the next step reads another thread's share:
