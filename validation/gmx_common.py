@@ -1,9 +1,14 @@
 """Shared helpers for the GROMACS cross-checks: write an .mdp, run gmx/gmx_d quietly, read .xvg
-series, run vimd. Only Debian's /usr/bin/python3 has the packages these scripts use."""
+series, run vimd, write a results file. Only Debian's /usr/bin/python3 has the packages these
+scripts use."""
+import datetime
 import json
 import os
 import pathlib
+import re
+import shlex
 import subprocess
+import sys
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -26,6 +31,12 @@ def cpu_model():
         if line.startswith("model name"):
             return line.split(":", 1)[1].strip()
     return "unknown CPU"
+
+
+def gmx_simd(log):
+    """The SIMD level a GROMACS build was compiled for, from its log's version block."""
+    m = re.search(r"^SIMD instructions:\s*(\S+)", log, re.MULTILINE)
+    return m.group(1) if m else "?"
 
 
 def gmx_env(env=None):
@@ -117,3 +128,49 @@ def vimd(*args, threads=None):
     if p.returncode != 0:
         raise RuntimeError(f"vimd {' '.join(map(str, args))} failed ({p.returncode}):\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
     return p.stdout
+
+
+# The keys every results file has (validation/results/*.json, turned into validation/README.md's tables
+# by validation/tables.py): where its figures come from, and the figures.
+RESULTS_KEYS = ("question", "command", "commit", "cpu", "simd", "date", "rows")
+
+
+def git_commit():
+    """HEAD's short hash, with -dirty when tracked files differ from it."""
+    def git(*args):
+        return subprocess.run(["git", "-C", str(ROOT), *args], text=True, capture_output=True)
+    head = git("rev-parse", "--short", "HEAD")
+    if head.returncode:
+        return "unknown"
+    return head.stdout.strip() + ("-dirty" if git("diff", "--quiet", "HEAD", "--").returncode else "")
+
+
+def results_start(question):
+    """A results file's provenance, taken when the measurement starts, so that the commit is the code
+    measured even if the tree changes meanwhile. The caller adds the SIMD targets that ran and the rows."""
+    script = pathlib.Path(sys.argv[0]).resolve()
+    name = str(script.relative_to(ROOT)) if script.is_relative_to(ROOT) else str(script)
+    command = shlex.join((["/usr/bin/python3"] if name.endswith(".py") else []) + [name, *sys.argv[1:]])
+    return dict(question=question, command=command, commit=git_commit(), cpu=cpu_model(), simd="unknown",
+                date=datetime.date.today().isoformat())
+
+
+def write_results(path, results):
+    """Replace a results file: a line per key, and one per row, so that a rerun's diff shows which
+    figures moved."""
+    missing = [k for k in RESULTS_KEYS if k not in results]
+    if missing:
+        raise ValueError(f"results for {path} lack {', '.join(missing)}")
+    lines = [f" {json.dumps(k)}: {json.dumps(v, ensure_ascii=False)}" for k, v in results.items() if k != "rows"]
+    rows = ",\n".join(f"  {json.dumps(row, ensure_ascii=False)}" for row in results["rows"])
+    lines.append(f' "rows": [\n{rows}\n ]' if rows else ' "rows": []')
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + ".partial")
+    partial.write_text("{\n" + ",\n".join(lines) + "\n}\n")
+    partial.replace(path)
+
+
+def sci(x, digits=1, sign=False):
+    """x in scientific notation without the exponent's padding, as the tables write it: 3.1e-9."""
+    return re.sub(r"e([+-])0*(\d)", r"e\1\2", f"{x:{'+' if sign else ''}.{digits}e}")

@@ -15,17 +15,22 @@ non-zero if any differs by more than 1e-6.
 GROMACS runs with a pair list 0.1 nm longer than the cut-off where the box allows (with rlist = rc
 its search can miss a pair at the cut-off, and a short buffer still changes forces by ~2e-7) and, for PME, with analytical Ewald kernels (GMX_NBNXN_EWALD_ANALYTICAL: its
 default tables carry a force error of ~6e-7 of the RMS force).
+`--results FILE` also writes, per case, the largest relative energy difference and the force
+difference to a results file (replaced), for validation/tables.py; without it nothing is written.
 Usage: /usr/bin/python3 validation/gromacs_energy.py [--systems water216 water900 tip3p_solvated tip4p2005]
                                                     [--molecules hexane8 hexane8:h-bonds alkane@pme ...]
+                                                    [--results validation/results/NAME.json]
 """
 import argparse
 import json
 import os
+import re
 import sys
 import tempfile
 import pathlib
 
-from gmx_common import ROOT, run, write_mdp, nonbonded_mdp, gmx_energy, vimd_config, vimd
+from gmx_common import (ROOT, gmx_energy, gmx_simd, nonbonded_mdp, results_start, run, sci, vimd, vimd_config,
+                        write_mdp, write_results)
 
 import MDAnalysis  # noqa: E402
 import numpy as np  # noqa: E402
@@ -57,6 +62,8 @@ CUTOFF = 0.9  # the molecule boxes'
 # box allows a skin of at most 0.032 nm (its run.toml uses 0.03). A single point needs no more.
 SKIN = 0.03
 TOLERANCE = 1e-6
+# The results file's columns: one row per system and setting.
+COLUMNS = ["case", "energies, largest relative difference", "forces, RMS difference / RMS force"]
 
 
 def pair_list_radius(structure, cutoff):
@@ -198,6 +205,27 @@ def compare_molecules(system, constraints, coulomb, work):
     return rows
 
 
+def results_rows(rows):
+    """Per system and setting, the largest relative difference of its energy terms and that of its forces
+    (the constraint count is checked by the exit status, not tabled)."""
+    energies, forces = {}, {}
+    for system, label, name, _, _, rel in rows:
+        case = f"{system}: {label}"
+        if name == "forces":
+            forces[case] = rel
+        elif name != "constraints":
+            energies[case] = max(rel, energies.get(case, 0.0))
+    return [{COLUMNS[0]: case, COLUMNS[1]: sci(worst)} | ({COLUMNS[2]: sci(forces[case])} if case in forces else {})
+            for case, worst in energies.items()]
+
+
+def platform(work):
+    """The SIMD targets of a run's programs: vimd's from `vimd check`, gmx_d's from its rerun's log."""
+    target = re.search(r"^platform\s+SIMD (\S+)", vimd("check", next(work.rglob("run.toml"))), re.MULTILINE)
+    gmx_log = next(work.rglob("rerun.log")).read_text()
+    return f"vimd {target.group(1) if target else 'unknown'}; gmx_d {gmx_simd(gmx_log)}"
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--systems", nargs="*", default=["water216", "water900", "tip3p_solvated", "tip4p2005"])
@@ -206,7 +234,9 @@ def main():
                              "peptide_amber", "peptide_amber:h-bonds", "vsites", "alkane", "alkane@pme"],
                     help="molecule boxes of validation/molecules or inputs, each optionally with :constraints "
                          "and @pme")
+    ap.add_argument("--results", type=pathlib.Path, help="also write the differences to this results file (replaced)")
     args = ap.parse_args()
+    record = results_start("agreement") if args.results else None
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for system in args.systems:
@@ -218,6 +248,10 @@ def main():
             system, _, constraints = case_name.partition(":")
             rows += compare_molecules(system, constraints or "none", coulomb or "reaction-field",
                                       pathlib.Path(tmp) / case.replace(":", "_").replace("@", "_"))
+        if record and rows:
+            record.update(simd=platform(pathlib.Path(tmp)), columns=COLUMNS, rows=results_rows(rows),
+                          notes="gmx_d with GMX_NBNXN_EWALD_ANALYTICAL=1")
+            write_results(args.results, record)
     print(f"{'system':<14} {'setting':<52} {'term':<10} {'gmx_d rerun':>20} {'vimd':>20} {'rel. diff':>10}")
     print("(forces: the RMS force of each, and the RMS of the difference over the RMS force)")
     worst = 0.0

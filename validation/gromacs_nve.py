@@ -12,9 +12,11 @@ to stop on OPLS-AA alkane melts with a range-check error), 10 ps at 2 fs by defa
 A single run's drift is mostly its random walk; `--seeds N` gives each engine N independent starts.
 `--precision mixed`: vimd with `precision = "mixed"` (single-precision pair forces) against GROMACS in
 mixed precision (`gmx`, or the build given by `--gmx`, e.g. one built for this CPU).
+`--results FILE` also writes the comparison's row to a results file (replaced), for validation/tables.py.
 Usage: /usr/bin/python3 validation/gromacs_nve.py [--system water900|polymer|alkane] [--coulomb reaction-field|pme]
                                                   [--ps 20] [--dt 0.002] [--gmx-vv] [--seeds N]
                                                   [--precision double|mixed] [--gmx PATH]
+                                                  [--results validation/results/NAME.json]
 """
 import argparse
 import json
@@ -24,7 +26,8 @@ import tempfile
 
 import numpy as np
 
-from gmx_common import ROOT, run, write_mdp, nonbonded_mdp, gmx_energy, vimd_config, vimd, read_xvg
+from gmx_common import (ROOT, gmx_energy, gmx_simd, nonbonded_mdp, read_xvg, results_start, run, sci, vimd,
+                        vimd_config, write_mdp, write_results)
 
 
 def statistics(t, e, atoms):
@@ -67,6 +70,27 @@ ALKANE = dict(ff=WATER["ff"], system=dict(constraints="h-bonds"),
               tolerance=1e-10, dt=0.002, ps=10.0,
               label="potential-shift LJ + RF (eps_rf = inf), cut-off 0.9 nm, C-H bonds rigid; gmx_d md-vv + LINCS 8/4")
 SETUPS = dict(polymer=POLYMER, alkane=ALKANE)
+# The results file's columns: one row per comparison.
+COLUMNS = ["run", "vimd drift (kJ/mol/ps/atom)", "GROMACS drift", "drift z", "vimd RMS fluct. (kJ/mol)",
+           "GROMACS RMS fluct.", "fluct. z"]
+
+
+def save_results(args, record, gmx_name, starts, v, g, z=None, notes=""):
+    """Replace the results file with this comparison: v and g hold (drift, fluct, SIMD), drift and
+    fluct as numbers for one start or as (mean, standard error) pairs for several; z the two
+    differences' z-scores."""
+    def text(x, drift):
+        if isinstance(x, tuple):
+            return f"{sci(x[0], 2, sign=True)} ± {sci(x[1], 1)}" if drift else f"{x[0]:.3g} ± {x[1]:.2g}"
+        return sci(x, 3, sign=True) if drift else f"{x:.3g}"
+    system = args.system if args.system in SETUPS else f"{args.system} {'PME' if args.coulomb == 'pme' else 'RF'}"
+    run_label = (f"{system}, {args.precision}, {args.dt * 1e3:g} fs, {args.ps:g} ps, "
+                 f"{starts} start{'s' if starts > 1 else ''}; {gmx_name}")
+    zs = [f"{x:+.2f}" for x in z] if z else ["", ""]
+    cells = [run_label, text(v[0], True), text(g[0], True), zs[0], text(v[1], False), text(g[1], False), zs[1]]
+    record.update(simd=f"vimd {v[2]}; {pathlib.Path(args.gmx).name} {g[2]}", columns=COLUMNS,
+                  rows=[dict(zip(COLUMNS, cells))], notes=f"{args.threads} threads. {notes}".strip())
+    write_results(args.results, record)
 
 
 def main():
@@ -84,7 +108,9 @@ def main():
                     help="polymer: GROMACS md-vv with LINCS (order 12, 4 iterations) instead of md with SHAKE")
     ap.add_argument("--precision", default="double", choices=["double", "mixed"])
     ap.add_argument("--gmx", help="the GROMACS to compare with (default: gmx_d, or gmx with --precision mixed)")
+    ap.add_argument("--results", type=pathlib.Path, help="also write the comparison to this results file (replaced)")
     args = ap.parse_args()
+    record = results_start("nve") if args.results else None
     args.gmx = args.gmx or ("gmx" if args.precision == "mixed" else "gmx_d")
     src = ROOT / "inputs" / args.system
     setup = SETUPS.get(args.system, PME_WATER if args.coulomb == "pme" else WATER)
@@ -109,6 +135,11 @@ def main():
             print(f"{'vimd rattle (summary)':<28}{v['summary_drift']:>22.3e}{v['summary_rms']:>20.4e}")
             for name, r in (("vimd rattle (this script)", v), (gmx_name, g)):
                 print(f"{name:<28}{r['drift']:>22.3e}{r['fluct']:>20.4e}   " + " ".join(f"{b:+.1e}" for b in r["blocks"]))
+            if record:
+                blocks = "; ".join(f"{name} drift in 4 blocks " + ", ".join(sci(b, 1, sign=True) for b in r["blocks"])
+                                   for name, r in (("vimd", v), (gmx_name, g)))
+                save_results(args, record, gmx_name, 1, *((r["drift"], r["fluct"], r["simd"]) for r in (v, g)),
+                             notes=blocks)
             return 0
         # Independent starts: the positions of conf.gro, velocities drawn by each engine at 300 K.
         work.mkdir(parents=True, exist_ok=True)
@@ -134,9 +165,17 @@ def main():
             print(f"{name:<16} drift {means[name, 'drift'][0]:+.3e} +- {means[name, 'drift'][1]:.1e}, "
                   f"RMS fluctuation {means[name, 'fluct'][0]:.4e} +- {means[name, 'fluct'][1]:.1e} (mean +- standard error)")
         # The difference of the means in units of its standard error: |z| < 2 is agreement at ~95 %.
+        z = []
         for key in ("drift", "fluct"):
             (a, sa), (b, sb) = means["vimd rattle", key], means[gmx_name, key]
-            print(f"{key}: vimd - {gmx_name} = {a - b:+.3e}, z = {(a - b) / np.hypot(sa, sb):+.2f}")
+            z.append((a - b) / np.hypot(sa, sb))
+            print(f"{key}: vimd - {gmx_name} = {a - b:+.3e}, z = {z[-1]:+.2f}")
+        if record:
+            per_seed = "; ".join(f"{name} drift per seed " + ", ".join(sci(r["drift"], 1, sign=True) for r in rs)
+                                 for name, rs in results.items())
+            save_results(args, record, gmx_name, args.seeds,
+                         *((means[name, "drift"], means[name, "fluct"], rs[0]["simd"]) for name, rs in results.items()),
+                         z=z, notes=per_seed)
     return 0
 
 
@@ -153,7 +192,8 @@ def run_both(work, src, structure, setup, args, atoms, seed):
     run([args.gmx, "mdrun", "-s", "nve.tpr", "-deffnm", "gmx_nve", "-nt", str(args.threads), "-pin", "off", "-notunepme"], work)
     e = gmx_energy(args.gmx, "gmx_nve.edr", ["Total-Energy", "Temperature", "Constr.-rmsd"], work)
     gmx = analyse(e["time"], e["Total Energy"], atoms)
-    gmx.update(constraint_rms=max(e.get("Constr. rmsd", [0.0])), temperature=np.mean(e["Temperature"]))
+    gmx.update(constraint_rms=max(e.get("Constr. rmsd", [0.0])), temperature=np.mean(e["Temperature"]),
+               simd=gmx_simd((work / "gmx_nve.log").read_text()))
 
     integrator = dict(type="rattle", dt=args.dt, steps=steps, constraint_tolerance=setup["tolerance"])
     if seed is not None:
@@ -166,7 +206,7 @@ def run_both(work, src, structure, setup, args, atoms, seed):
     ours = analyse(cols[0], cols[1 + legends.index("total")], atoms)
     ours.update(summary_drift=summary["drift_per_atom"], summary_rms=summary["rms_fluctuation"],
                 constraint_rms=max(cols[1 + legends.index("constraint_rms")]),
-                temperature=np.mean(cols[1 + legends.index("temperature")]))
+                temperature=np.mean(cols[1 + legends.index("temperature")]), simd=summary.get("simd_target", "unknown"))
     return ours, gmx
 
 
