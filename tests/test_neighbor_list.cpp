@@ -18,13 +18,14 @@
 #include <tuple>
 
 #include "engine/errors.hpp"
-#include "engine/neighbor_list.hpp"
-#include "forcefields/lennard_jones-inl.h"
-#include "forcefields/nonbonded_pair_term.hpp"
-#include "forcefields/pair_lists.hpp"
-#include "forcefields/ewald-inl.h"
-#include "forcefields/reaction_field-inl.h"
+#include "forcefields/nonbonded/neighbor_list.hpp"
+#include "forcefields/nonbonded/lennard_jones-inl.h"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/pair_lists.hpp"
+#include "forcefields/nonbonded/ewald-inl.h"
+#include "forcefields/nonbonded/reaction_field-inl.h"
 #include "test_ff_systems.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 namespace {
@@ -416,7 +417,7 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
   }
   simd::use_target("");
   EXPECT_EQ(simd::target_name(), targets.front());
-  EXPECT_THROW(simd::use_target("NO-SUCH-TARGET"), InputError);
+  EXPECT_THROW(simd::use_target("NO-SUCH-TARGET"), std::invalid_argument);
 }
 
 // Rows whose atom type has no LJ with any type skip the LJ terms in every kernel. The skip must
