@@ -1,5 +1,5 @@
 // The one SIMD layer (Google Highway): a native vector of doubles as a number type, so that the
-// functional forms (lennard_jones-inl.h, reaction_field-inl.h) are written once, as templates on
+// functional forms (forcefields/nonbonded/*_kernels.h) are written once, as templates on
 // the number type, and instantiated for double (reference sums, tests) and for SimdDouble (the
 // pair loops of forcefields/nonbonded/pair_loops-inl.h). Its width is the target's: 8 lanes on
 // AVX-512, 4 on AVX2, 2 on SSE4. SimdFloat, the same in single precision (up to 16 lanes), serves

@@ -19,11 +19,9 @@
 
 #include "engine/errors.hpp"
 #include "forcefields/nonbonded/neighbor_list.hpp"
-#include "forcefields/nonbonded/lennard_jones-inl.h"
+#include "tests/pair_form_kernels.hpp"
 #include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/nonbonded/pair_lists.hpp"
-#include "forcefields/nonbonded/ewald-inl.h"
-#include "forcefields/nonbonded/reaction_field-inl.h"
 #include "test_ff_systems.hpp"
 #include "simd/targets.hpp"
 
@@ -32,6 +30,12 @@ namespace {
 
 // The scalar (double) instantiations of the pair kernels, from the build's static SIMD target.
 using namespace vimd::HWY_NAMESPACE;
+using testing::lj_energy_force;
+using testing::lj_hessian;
+using testing::rf_energy_force;
+using testing::rf_hessian;
+using testing::ewald_energy_force;
+using testing::ewald_hessian;
 
 using testing::relative_difference;
 

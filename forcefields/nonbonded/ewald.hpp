@@ -9,7 +9,7 @@
 // chosen so that erfc(β r_switch) = ewald_rtol: the switch then acts where the real-space term is
 // already below the tolerance, so the physics stays PME's while the potential becomes C^k.
 //
-// The kernels (ewald-inl.h) use the convention of lennard_jones.hpp: g = −φ'/r, a = φ'/r,
+// The kernels (ewald_kernels.h) use the convention of lennard_jones.hpp: g = −φ'/r, a = φ'/r,
 // b = (φ'' − φ'/r)/r²; qq already includes f/eps_r.
 #include <array>
 #include <string>
@@ -26,6 +26,7 @@ enum class EwaldModifier { shifted, potential_switch };
 // A pair form (pair_form.hpp), present with coulomb = "pme".
 struct EwaldRealSpace {
   static constexpr PairEnergy kEnergy = PairEnergy::coulomb;
+  static constexpr PairParameters kParameters = PairParameters::charge_product;
   static constexpr std::array kVariants{EwaldModifier::shifted, EwaldModifier::potential_switch};
   static constexpr bool kExcludedPairs = true;
   static EwaldRealSpace from_config(const ForceFieldConfig& config);
@@ -42,7 +43,7 @@ struct EwaldRealSpace {
   double shift = 0;      // nm⁻¹: erfc(β rc)/rc with potential-shift, 0 otherwise
   double ewald_rtol = 0;
   SwitchFunction sw;     // potential_switch only
-  // The SIMD kernels' rational corrections (ewald-inl.h) are fitted for βr ≤ kRationalRange; beyond
+  // The SIMD kernels' rational corrections (ewald_kernels.h) are fitted for βr ≤ kRationalRange; beyond
   // it (a tiny ewald_rtol or a long switch) the kernels use erfc.
   static constexpr double kRationalRange = 4.5;
   bool rational_corrections = false;

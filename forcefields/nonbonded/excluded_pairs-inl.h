@@ -99,10 +99,6 @@ void excluded_pairs(const PairViewOf<Real>& d, const NeighborList::ExcludedPair*
   }
 }
 
-template <class Real>
-using ForceKernelOf = void (*)(const PairViewOf<Real>&, int, int, Real*, Real*, Real*, double*, double*,
-                               std::uint32_t*);
-
 }  // namespace
 }  // namespace HWY_NAMESPACE
 }  // namespace vimd

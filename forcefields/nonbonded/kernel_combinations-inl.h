@@ -45,11 +45,16 @@ struct ConcatOf<TypeList<A...>, TypeList<B...>, Rest...> {
 template <class... Lists>
 using Concat = typename ConcatOf<Lists...>::type;
 
+template <class Form, class Real, class FormSet>
+HWY_INLINE const ConstantsOf<Form>& constants_of(const PairViewOf<Real, FormSet>& d) {
+  return std::get<ConstantsOf<Form>>(d.forms);
+}
+
 // Whether Form is the configured variant of its pair form.
 template <class Form>
 bool configured(const PairFormConstants& forms) {
-  const auto& constants = std::get<typename Form::Constants>(forms);
-  return constants.present() && constants.variant() == Form::kVariant;
+  const auto& constants = std::get<ConstantsOf<Form>>(forms);
+  return constants.present() && constants.variant() == FormOf<Form>::kVariant;
 }
 int present_forms(const PairFormConstants& forms) {
   int n = 0;
@@ -57,8 +62,9 @@ int present_forms(const PairFormConstants& forms) {
   return n;
 }
 
-// A combination of pair forms is what one kernel evaluates per pair: Half<Real>, the forms'
-// data of an i-half; load(); selected(), whether it is what the configuration asks for;
+// A combination of pair forms is what one kernel evaluates per pair: Half<Real>, the rows of the
+// forms' parameters (PairRows) of an i-half; load(); selected(), whether it is what the
+// configuration asks for;
 // energy_force() (g = −φ'/r of the pair, the forms' energies added to e[PairEnergy]) and
 // hessian() (a and b of the pair).
 
@@ -66,28 +72,28 @@ int present_forms(const PairFormConstants& forms) {
 template <class... Form>
 struct Sum {
   template <class Real>
-  using Half = std::tuple<typename Form::template Half<Real>...>;
+  using Half = std::tuple<PairRowsOf<Form, Real>...>;
 
   static bool selected(const PairFormConstants& forms) {
     return (configured<Form>(forms) && ...) && present_forms(forms) == static_cast<int>(sizeof...(Form));
   }
 
-  template <class Real>
-  static HWY_INLINE void load(const PairViewOf<Real>& d, int ib, Half<Real>& hi) {
+  template <class Real, class FormSet>
+  static HWY_INLINE void load(const PairViewOf<Real, FormSet>& d, int ib, Half<Real>& hi) {
     load_each(d, ib, hi, std::index_sequence_for<Form...>{});
   }
 
-  template <bool kEnergies, class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                      const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
+  template <bool kEnergies, class Real, class FormSet>
+  static HWY_INLINE void energy_force(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
+                                      const PairDistance<SimdVec<Real>>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
                                       SimdVec<Real>* e) {
     g = SimdVec<Real>::zero();
     add_energy_force<0, kEnergies>(d, hi, ii, j, p, inside, g, e);
   }
 
-  template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+  template <class Real, class FormSet>
+  static HWY_INLINE void hessian(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
+                                 const PairDistance<SimdVec<Real>>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
     a = b = SimdVec<Real>::zero();
     add_hessian<0>(d, hi, ii, j, p, a, b);
   }
@@ -97,47 +103,51 @@ struct Sum {
   using Nth = std::tuple_element_t<I, std::tuple<Form...>>;
 
   // Not std::apply: a lambda would lack the target's attributes and stay a call.
-  template <class Real, std::size_t... I>
-  static HWY_INLINE void load_each(const PairViewOf<Real>& d, int ib, Half<Real>& hi, std::index_sequence<I...>) {
-    (std::get<I>(hi).load(d, ib), ...);
+  template <class Real, class FormSet, std::size_t... I>
+  static HWY_INLINE void load_each(const PairViewOf<Real, FormSet>& d, int ib, Half<Real>& hi, std::index_sequence<I...>) {
+    (std::get<I>(hi).load(d, constants_of<Nth<I>>(d), ib), ...);
   }
 
-  template <std::size_t I, bool kEnergies, class Real>
-  static HWY_INLINE void add_energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii,
-                                          const JBlock<Real>& j, const PairDistance<Real>& p, SimdMaskOf<Real> inside,
+  template <std::size_t I, bool kEnergies, class Real, class FormSet>
+  static HWY_INLINE void add_energy_force(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii,
+                                          const JBlock<Real>& j, const PairDistance<SimdVec<Real>>& p, SimdMaskOf<Real> inside,
                                           SimdVec<Real>& g, SimdVec<Real>* e) {
     if constexpr (I < sizeof...(Form)) {
       using F = Nth<I>;
-      const auto& half = std::get<I>(hi);
-      if (half.active(ii)) {
+      const auto& rows = std::get<I>(hi);
+      if (rows.active(ii)) {
+        const auto& k = constants_of<F>(d);
+        const auto pair = rows.at(ii, j);
         SimdVec<Real> v;
         if constexpr (I == 0) {
-          F::energy_force(d, half, ii, j, p, v, g);
-        } else if constexpr (requires { F::add_energy_force(d, half, ii, j, p, v, g); }) {
-          F::add_energy_force(d, half, ii, j, p, v, g);
+          F::energy_force(k, pair, p, v, g);
+        } else if constexpr (requires { F::add_energy_force(k, pair, p, v, g); }) {
+          F::add_energy_force(k, pair, p, v, g);
         } else {
           SimdVec<Real> gf;
-          F::energy_force(d, half, ii, j, p, v, gf);
+          F::energy_force(k, pair, p, v, gf);
           g += gf;
         }
-        if constexpr (kEnergies) e[static_cast<int>(F::Constants::kEnergy)] += keep(inside, v);
+        if constexpr (kEnergies) e[static_cast<int>(ConstantsOf<F>::kEnergy)] += keep(inside, v);
       }
       add_energy_force<I + 1, kEnergies>(d, hi, ii, j, p, inside, g, e);
     }
   }
 
-  template <std::size_t I, class Real>
-  static HWY_INLINE void add_hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                     const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+  template <std::size_t I, class Real, class FormSet>
+  static HWY_INLINE void add_hessian(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
+                                     const PairDistance<SimdVec<Real>>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
     if constexpr (I < sizeof...(Form)) {
       using F = Nth<I>;
-      const auto& half = std::get<I>(hi);
-      if (half.active(ii)) {
+      const auto& rows = std::get<I>(hi);
+      if (rows.active(ii)) {
+        const auto& k = constants_of<F>(d);
+        const auto pair = rows.at(ii, j);
         if constexpr (I == 0) {
-          F::hessian(d, half, ii, j, p, a, b);
+          F::hessian(k, pair, p, a, b);
         } else {
           SimdVec<Real> af, bf;
-          F::hessian(d, half, ii, j, p, af, bf);
+          F::hessian(k, pair, p, af, bf);
           a += af;
           b += bf;
         }
@@ -152,58 +162,58 @@ struct Sum {
 // must act on every row: the Hessian sums start from it.
 template <class A, class B>
 struct SharedSwitch {
-  static_assert(B::template Half<double>::active(0), "SharedSwitch: B must act on every row");
+  static_assert(PairRowsOf<B, double>::active(0), "SharedSwitch: B must act on every row");
   template <class Real>
-  using Half = std::tuple<typename A::template Half<Real>, typename B::template Half<Real>>;
+  using Half = std::tuple<PairRowsOf<A, Real>, PairRowsOf<B, Real>>;
 
   static bool selected(const PairFormConstants& forms) {
-    const auto& a = std::get<typename A::Constants>(forms);
-    const auto& b = std::get<typename B::Constants>(forms);
+    const auto& a = std::get<ConstantsOf<A>>(forms);
+    const auto& b = std::get<ConstantsOf<B>>(forms);
     return a.present() && b.present() && a.potential_switched() && b.potential_switched() &&
            a.potential_switch().r_switch == b.potential_switch().r_switch &&
            a.potential_switch().smoothness == b.potential_switch().smoothness && present_forms(forms) == 2;
   }
 
-  template <class Real>
-  static HWY_INLINE void load(const PairViewOf<Real>& d, int ib, Half<Real>& hi) {
-    std::get<0>(hi).load(d, ib);
-    std::get<1>(hi).load(d, ib);
+  template <class Real, class FormSet>
+  static HWY_INLINE void load(const PairViewOf<Real, FormSet>& d, int ib, Half<Real>& hi) {
+    std::get<0>(hi).load(d, constants_of<A>(d), ib);
+    std::get<1>(hi).load(d, constants_of<B>(d), ib);
   }
 
-  template <bool kEnergies, class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                      const PairDistance<Real>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
+  template <bool kEnergies, class Real, class FormSet>
+  static HWY_INLINE void energy_force(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
+                                      const PairDistance<SimdVec<Real>>& p, SimdMaskOf<Real> inside, SimdVec<Real>& g,
                                       SimdVec<Real>* e) {
     using V = SimdVec<Real>;
     const V r = p.r2 * p.rinv;
     V v = V::zero();
     g = V::zero();
-    if (std::get<0>(hi).active(ii)) A::energy_force(d, std::get<0>(hi), ii, j, p, v, g);
+    if (std::get<0>(hi).active(ii)) A::energy_force(constants_of<A>(d), std::get<0>(hi).at(ii, j), p, v, g);
     V vb, gb, s, ds;
-    B::energy_force(d, std::get<1>(hi), ii, j, p, vb, gb);
+    B::energy_force(constants_of<B>(d), std::get<1>(hi).at(ii, j), p, vb, gb);
     switch_value_slope(switch_of(d), r, s, ds);
     apply_switch_factors(s, ds, p.rinv, v, g);
     apply_switch_factors(s, ds, p.rinv, vb, gb);
     if constexpr (kEnergies) {
-      e[static_cast<int>(A::Constants::kEnergy)] += keep(inside, v);
-      e[static_cast<int>(B::Constants::kEnergy)] += keep(inside, vb);
+      e[static_cast<int>(ConstantsOf<A>::kEnergy)] += keep(inside, v);
+      e[static_cast<int>(ConstantsOf<B>::kEnergy)] += keep(inside, vb);
     }
     g += gb;
   }
 
   // The coefficients of U = U_A + U_B unswitched, then of U·S.
-  template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
+  template <class Real, class FormSet>
+  static HWY_INLINE void hessian(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
+                                 const PairDistance<SimdVec<Real>>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
     using V = SimdVec<Real>;
     const V r = p.r2 * p.rinv;
     V u, unused;
-    B::hessian(d, std::get<1>(hi), ii, j, p, a, b);
-    B::energy_force(d, std::get<1>(hi), ii, j, p, u, unused);
+    B::hessian(constants_of<B>(d), std::get<1>(hi).at(ii, j), p, a, b);
+    B::energy_force(constants_of<B>(d), std::get<1>(hi).at(ii, j), p, u, unused);
     if (std::get<0>(hi).active(ii)) {
       V a_a, b_a, u_a;
-      A::hessian(d, std::get<0>(hi), ii, j, p, a_a, b_a);
-      A::energy_force(d, std::get<0>(hi), ii, j, p, u_a, unused);
+      A::hessian(constants_of<A>(d), std::get<0>(hi).at(ii, j), p, a_a, b_a);
+      A::energy_force(constants_of<A>(d), std::get<0>(hi).at(ii, j), p, u_a, unused);
       a += a_a;
       b += b_a;
       u += u_a;
@@ -212,9 +222,9 @@ struct SharedSwitch {
   }
 
  private:
-  template <class Real>
-  static const SwitchFunction& switch_of(const PairViewOf<Real>& d) {
-    return std::get<typename A::Constants>(d.forms).potential_switch();
+  template <class Real, class FormSet>
+  static const SwitchFunction& switch_of(const PairViewOf<Real, FormSet>& d) {
+    return constants_of<A>(d).potential_switch();
   }
 };
 
@@ -274,6 +284,9 @@ using Combinations =
     Concat<typename SharedSwitches<VdwForms, CoulombForms>::type,
            typename SumsOf<typename SlotOf<VdwForms>::type, typename SlotOf<CoulombForms>::type>::type>;
 
+template <class Real>
+using ForceKernelOf = void (*)(const PairViewOf<Real>&, int, int, Real*, Real*, Real*, double*, double*,
+                               std::uint32_t*);
 template <class Real>
 using HessianKernelOf = void (*)(const PairViewOf<Real>&, const Real*, const Real*, const Real*, const std::uint32_t*,
                                  int, int, Real*, Real*, Real*);

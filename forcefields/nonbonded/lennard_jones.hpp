@@ -4,7 +4,7 @@
 //   V·S(r − r_switch) with the switch of switch_function.hpp (smoothness 2 = GROMACS's).
 //   Units: r nm, c6 kJ/mol nm⁶, c12 kJ/mol nm¹², V kJ/mol.
 //
-// The kernels (lennard_jones-inl.h) return, per pair at distance r (d = r_i − r_j):
+// The kernels (lennard_jones_kernels.h) return, per pair at distance r (d = r_i − r_j):
 //   energy_force: φ and g = −φ'(r)/r, so the force on i is g d;
 //   hessian:      a = φ'(r)/r and b = (φ'' − φ'/r)/r², so the pair Hessian block is a I + b d dᵀ.
 // They are branch-free templates on the number type T: double for reference sums, SimdDouble
@@ -27,6 +27,7 @@ VdwModifier parse_vdw_modifier(const std::string& name);
 // A pair form (pair_form.hpp), always present; its kernels read c6 and c12 of the atoms' types.
 struct LjConstants {
   static constexpr PairEnergy kEnergy = PairEnergy::vdw;
+  static constexpr PairParameters kParameters = PairParameters::lennard_jones;
   static constexpr std::array kVariants{VdwModifier::none, VdwModifier::potential_shift, VdwModifier::force_switch,
                                         VdwModifier::potential_switch};
   static constexpr VdwModifier kUnswitched = VdwModifier::none;

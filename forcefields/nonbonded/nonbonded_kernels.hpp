@@ -44,14 +44,14 @@ inline const NeighborList::Entry* entries_of_half(const PairPositionsOf<Real>& d
 // the pair forms. Positions and charges are in slot order; the LJ parameters of type t with the
 // atoms of j-cluster c are lj[lj_index(t, c)]: its kClusterSize c6 values, then as many c12, in slot
 // order, so that an i atom's parameters with a j-cluster are one cache line.
-template <class Real>
+template <class Real, class FormSet = PairFormConstants>
 struct PairViewOf : PairPositionsOf<Real> {
   const Real* charge;
   const int* type;
   const Real* lj;
   const unsigned char* type_has_lj;  // per type: 1 if its c6 or c12 with some type is not zero
   std::size_t n_slots;
-  PairFormConstants forms;
+  FormSet forms;  // the constants of every form the kernels may evaluate
 };
 using PairView = PairViewOf<double>;
 // Where PairViewOf::lj holds the parameters of type t with j-cluster c.

@@ -1,10 +1,10 @@
 #pragma once
 // The nonbonded pair term: one OpenMP pair loop over the pair lists (pair_lists.hpp), evaluating
-// the pair forms of pair_forms.hpp (Lennard-Jones, reaction-field Coulomb) with the SIMD kernels
-// of the CPU's best target (nonbonded_kernels.hpp) for every listed pair inside the cut-off;
-// reports energies {"lj", "coulomb"} (each form's PairEnergy).
+// the pair forms registered in pair_forms.hpp with the SIMD kernels of the CPU's best target
+// (nonbonded_kernels.hpp) for every listed pair inside the cut-off; reports energies
+// {"lj", "coulomb"} (each form's PairEnergy).
 //   V = Σ_{i<j, not excluded, r<rc} Σ_forms φ(r) + Σ_{excluded, r<rc} Σ_forms φ_excl(r) + Σ_forms V_self
-//   (reaction field has the excluded-pair and self terms: reaction_field.hpp)
+//   (the forms with excluded-pair and self terms say so: pair_form.hpp)
 //   Units: nm, kJ/mol, e. Forces kJ/mol/nm. Hessian–vector products kJ/mol/nm² × (units of u).
 //
 // Threads: each thread takes its home segment of chunks of i-halves, then tail segments as they

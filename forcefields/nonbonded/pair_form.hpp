@@ -8,9 +8,11 @@
 // Its constants (FormConstants below), target-independent, in <form>.hpp: built once from the
 // configuration, carried by value in the pair loop's view (PairViewOf::forms), read by the kernels.
 //
-// Its kernels, per SIMD target, in <form>-inl.h: a specialisation PairForm<Constants, variant> per
-// variant (pair_form-inl.h describes its members: the per-pair energy, force factor and Hessian
-// coefficients as functions of r², branch-free templates on the number type).
+// Its kernels, in <form>_kernels.h, compiled once per SIMD target: a specialisation
+// PairForm<Constants, variant> per variant with the per-pair energy, force factor and Hessian
+// coefficients as branch-free templates on the number type, of the pair's distance and of the
+// per-pair parameters the constants declare (kParameters), which the loop loads
+// (pair_form-inl.h describes the members).
 #include <concepts>
 #include <string>
 #include <type_traits>
@@ -23,6 +25,32 @@ namespace vimd {
 // The energy a form reports to (NonbondedPairTerm::energy_names: "lj", "coulomb").
 enum class PairEnergy { vdw = 0, coulomb = 1 };
 constexpr int kPairEnergies = 2;
+
+// The per-pair parameters a form's kernels read, loaded by the pair loop for every pair:
+//   charge_product: qq = prefactor · q_i q_j, with the constants' member `prefactor` (f/ε_r);
+//   lennard_jones:  c6 and c12 of the two atoms' types (atoms whose type has no LJ with any type
+//                   skip the form: its terms would be exact zeros).
+enum class PairParameters { charge_product, lennard_jones };
+template <PairParameters K, class T>
+struct PairParametersOf;
+template <class T>
+struct PairParametersOf<PairParameters::charge_product, T> {
+  T qq;
+};
+template <class T>
+struct PairParametersOf<PairParameters::lennard_jones, T> {
+  T c6, c12;
+};
+template <class T>
+using ChargeProduct = PairParametersOf<PairParameters::charge_product, T>;
+template <class T>
+using LennardJonesPair = PairParametersOf<PairParameters::lennard_jones, T>;
+
+// A pair's distance as the kernels read it: r², 1/r and 1/r² (T: a vector of pairs, or double).
+template <class T>
+struct PairDistance {
+  T r2, rinv, rinv2;
+};
 
 // The constants of a pair form. Beyond these members, a form may have
 //   double self_energy(double sum_q2) const;   a constant energy from the atoms' charges;
@@ -37,6 +65,7 @@ concept FormConstants = requires(const C& c, const ForceFieldConfig& config, dou
   { c.present() } -> std::convertible_to<bool>;  // the configuration uses this form at all
   { c.variant() } -> std::same_as<std::remove_cvref_t<decltype(C::kVariants[0])>>;  // one of kVariants
   { C::kEnergy } -> std::convertible_to<PairEnergy>;
+  { C::kParameters } -> std::convertible_to<PairParameters>;
   // n such that the pair potential is C^n over the whole range, cut-off included (−1: the energy
   // itself jumps there). n ≥ 1 lets a variational step leave its pair set free.
   { c.continuity(cutoff) } -> std::same_as<int>;

@@ -35,8 +35,8 @@ struct HalfData {
 template <class Forms, class Real>
 using HalfDataOf = HalfData<typename Forms::template Half<Real>, Real>;
 
-template <class Forms, class Real>
-HWY_INLINE void load_half(const PairViewOf<Real>& d, int h, HalfDataOf<Forms, Real>& hi) {
+template <class Forms, class Real, class FormSet>
+HWY_INLINE void load_half(const PairViewOf<Real, FormSet>& d, int h, HalfDataOf<Forms, Real>& hi) {
   hi.positions.start(h);
   Forms::load(d, h * kH, hi.forms);
 }
@@ -62,11 +62,11 @@ HWY_INLINE void take_pair_term(V& ix, V& iy, V& iz, V& jx, V& jy, V& jz, V tx, V
 // arithmetic and of the force sums (float: the single-precision kernel). kEnergies: also the
 // energies (without them, half_lj and half_coulomb are not touched). kMasks: also the inside
 // masks, where inside_masks is given (without, it is ignored: a test per row would slow the loop).
-template <class Forms, class Real, bool kEnergies, bool kMasks>
-void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
+template <class Forms, class Real, bool kEnergies, bool kMasks, class FormSet>
+void force_halves(const PairViewOf<Real, FormSet>& view, int h0, int h1, Real* fx, Real* fy, Real* fz, double* half_lj,
                   double* half_coulomb, std::uint32_t* inside_masks) {
   // A local copy: no store in the loop can change it, so the forms' constants are read before it.
-  const PairViewOf<Real> d = view;
+  const PairViewOf<Real, FormSet> d = view;
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
@@ -106,7 +106,7 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
           if (kMasks && inside_masks) inside_bits |= bits_from_mask(inside) << (ii * kC + js);
           const V r2s = simd_max(r2, r2_floor);
           const V rinv = simd_rsqrt(r2s);
-          const PairDistance<Real> p{r2s, rinv, rinv * rinv};
+          const PairDistance<V> p{r2s, rinv, rinv * rinv};
           V g;
           Forms::template energy_force<kEnergies>(d, hi.forms, ii, j, p, inside, g, energy);
           g = keep(inside, g);
@@ -134,10 +134,10 @@ void force_halves(const PairViewOf<Real>& view, int h0, int h1, Real* fx, Real* 
 
 // Per pair a u_ij + b (d·u_ij) d, for exactly the pairs the masks select (no cut-off test here).
 // Forms, Real: as in force_halves.
-template <class Forms, class Real>
-void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy, const Real* uz,
+template <class Forms, class Real, class FormSet>
+void hessian_halves(const PairViewOf<Real, FormSet>& view, const Real* ux, const Real* uy, const Real* uz,
                     const std::uint32_t* masks, int h0, int h1, Real* ox, Real* oy, Real* oz) {
-  const PairViewOf<Real> d = view;  // as in force_halves
+  const PairViewOf<Real, FormSet> d = view;  // as in force_halves
   using V = SimdVec<Real>;
   using Mask = SimdMaskOf<Real>;
   constexpr int kRows = PairLayout<Real>::kRows, kJ = PairLayout<Real>::kJLanes;
@@ -179,7 +179,7 @@ void hessian_halves(const PairViewOf<Real>& view, const Real* ux, const Real* uy
           const Mask inside = listed.of(ii, js);
           const V r2s = simd_max(r2, r2_floor);
           const V rinv = simd_rsqrt(r2s);
-          const PairDistance<Real> p{r2s, rinv, rinv * rinv};
+          const PairDistance<V> p{r2s, rinv, rinv * rinv};
           V a, b;
           Forms::hessian(d, hi.forms, ii, j, p, a, b);
           a = keep(inside, a);

@@ -21,7 +21,7 @@
 // molecules; water's excluded pairs stay far inside r_switch, where S = 1, so water is unchanged).
 // The self term is that pair term's r → 0 limit, where S = 1: unchanged.
 //
-// The kernels (reaction_field-inl.h) use the same convention as lennard_jones.hpp:
+// The kernels (reaction_field_kernels.h) use the same convention as lennard_jones.hpp:
 // g = −φ'/r, a = φ'/r, b = (φ'' − φ'/r)/r²; qq already includes f/eps_r.
 #include <array>
 #include <string>
@@ -37,6 +37,7 @@ enum class CoulombModifier { none, potential_switch };
 // A pair form (pair_form.hpp), present unless coulomb = "none"; its kernels read the atoms' charges.
 struct ReactionField {
   static constexpr PairEnergy kEnergy = PairEnergy::coulomb;
+  static constexpr PairParameters kParameters = PairParameters::charge_product;
   static constexpr std::array kVariants{CoulombModifier::none, CoulombModifier::potential_switch};
   static constexpr CoulombModifier kUnswitched = CoulombModifier::none;
   static constexpr bool kExcludedPairs = true;

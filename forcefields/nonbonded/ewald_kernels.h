@@ -1,26 +1,6 @@
-// PME real-space pair kernels (formulas and conventions: ewald.hpp), as templates on the number
-// type: double (std::erfc, for tests and the excluded pairs), or SimdVec (forces and energies from
-// rational corrections to the bare Coulomb terms; Hessians from W. J. Cody's erfc), and as a pair
-// form of the pair loop (pair_form-inl.h). A Highway per-target header: see simd/simd-inl.h.
-#if defined(VIMD_FORCEFIELDS_NONBONDED_EWALD_INL_H_) == defined(HWY_TARGET_TOGGLE)
-#ifdef VIMD_FORCEFIELDS_NONBONDED_EWALD_INL_H_
-#undef VIMD_FORCEFIELDS_NONBONDED_EWALD_INL_H_
-#else
-#define VIMD_FORCEFIELDS_NONBONDED_EWALD_INL_H_
-#endif
-
-#include <cmath>
-#include <tuple>
-#include <type_traits>
-
-#include "simd/simd-inl.h"
-#include "forcefields/nonbonded/ewald.hpp"
-#include "forcefields/nonbonded/pair_form-inl.h"
-#include "forcefields/nonbonded/switch_function-inl.h"
-
-HWY_BEFORE_NAMESPACE();
-namespace vimd {
-namespace HWY_NAMESPACE {
+// Real-space Ewald (PME) as a pair form of the pair loop (formulas and constants: ewald.hpp), on any
+// number type T: a SIMD vector of pairs in the loop, double elsewhere. qq includes f/ε_r.
+// Included by pair_forms-inl.h inside its per-target namespace, once per SIMD target.
 
 // Horner's rule for C[0] + C[1] x + ... , highest power last.
 template <const auto& C, class V>
@@ -140,34 +120,41 @@ HWY_INLINE V ewald_force_correction(V z) {
   return ewald_rational<kNum, kDen, kNumDouble, kDenDouble>(z);
 }
 
-template <EwaldModifier M, class T>
-HWY_INLINE void ewald_energy_force(const EwaldRealSpace& e, T qq, T rinv, T r2, T& v, T& g) {
-  if constexpr (!std::is_arithmetic_v<T>) {
-    if (e.rational_corrections) {
-      const T z = r2 * (e.beta * e.beta);
-      v = qq * (rinv - e.beta * ewald_energy_correction(z) - e.shift);
-      g = qq * (rinv * rinv * rinv - (e.beta * e.beta * e.beta) * ewald_force_correction(z));
-      if constexpr (M == EwaldModifier::potential_switch) apply_switch_energy_force(e.sw, r2 * rinv, rinv, v, g);
-      return;
+template <EwaldModifier M>
+struct PairForm<EwaldRealSpace, M> {
+  template <class T>
+  static HWY_INLINE void energy_force(const EwaldRealSpace& e, const ChargeProduct<T>& pair, const PairDistance<T>& p,
+                                      T& v, T& g) {
+    const T qq = pair.qq, rinv = p.rinv, r2 = p.r2;
+    if constexpr (!std::is_arithmetic_v<T>) {
+      if (e.rational_corrections) {
+        const T z = r2 * (e.beta * e.beta);
+        v = qq * (rinv - e.beta * ewald_energy_correction(z) - e.shift);
+        g = qq * (rinv * rinv * rinv - (e.beta * e.beta * e.beta) * ewald_force_correction(z));
+        if constexpr (M == EwaldModifier::potential_switch) apply_switch_energy_force(e.sw, r2 * rinv, rinv, v, g);
+        return;
+      }
     }
+    T erfc_r, gauss;
+    ewald_parts(e, r2, rinv, erfc_r, gauss);
+    v = qq * (erfc_r - e.shift);
+    g = qq * (erfc_r + gauss) * (rinv * rinv);
+    if constexpr (M == EwaldModifier::potential_switch) apply_switch_energy_force(e.sw, r2 * rinv, rinv, v, g);
   }
-  T erfc_r, gauss;
-  ewald_parts(e, r2, rinv, erfc_r, gauss);
-  v = qq * (erfc_r - e.shift);
-  g = qq * (erfc_r + gauss) * (rinv * rinv);
-  if constexpr (M == EwaldModifier::potential_switch) apply_switch_energy_force(e.sw, r2 * rinv, rinv, v, g);
-}
 
-template <EwaldModifier M, class T>
-HWY_INLINE void ewald_hessian(const EwaldRealSpace& e, T qq, T rinv, T r2, T& a, T& b) {
-  T erfc_r, gauss;
-  ewald_parts(e, r2, rinv, erfc_r, gauss);
-  const T rinv2 = rinv * rinv;
-  const T slope = (erfc_r + gauss) * rinv2;  // −φ'/r per unit qq
-  a = -qq * slope;
-  b = qq * (3.0 * slope + (2.0 * e.beta * e.beta) * gauss) * rinv2;
-  if constexpr (M == EwaldModifier::potential_switch) apply_switch_hessian(e.sw, qq * erfc_r, r2 * rinv, rinv, a, b);
-}
+  template <class T>
+  static HWY_INLINE void hessian(const EwaldRealSpace& e, const ChargeProduct<T>& pair, const PairDistance<T>& p, T& a,
+                                 T& b) {
+    const T qq = pair.qq, rinv = p.rinv, r2 = p.r2;
+    T erfc_r, gauss;
+    ewald_parts(e, r2, rinv, erfc_r, gauss);
+    const T rinv2 = rinv * rinv;
+    const T slope = (erfc_r + gauss) * rinv2;  // −φ'/r per unit qq
+    a = -qq * slope;
+    b = qq * (3.0 * slope + (2.0 * e.beta * e.beta) * gauss) * rinv2;
+    if constexpr (M == EwaldModifier::potential_switch) apply_switch_hessian(e.sw, qq * erfc_r, r2 * rinv, rinv, a, b);
+  }
+};
 
 // erf(x) and e^(−x²): the library's in double, from Cody's erfc lane by lane.
 inline void ewald_erf(double x, double& erf, double& gaussian) {
@@ -225,43 +212,3 @@ inline void excluded_energy_force(const EwaldRealSpace& e, T charge_product, T r
 inline void excluded_hessian(const EwaldRealSpace& e, double charge_product, double r2, double& a, double& b) {
   ewald_excluded_hessian(e, e.prefactor * charge_product, r2, a, b);
 }
-
-// The i atoms' charges, times f/eps_r, per vector of rows.
-template <class Real>
-struct EwaldHalf {
-  SimdVec<Real> q[PairLayout<Real>::kRowVectors];
-  HWY_INLINE void load(const PairViewOf<Real>& d, int ib) {
-    const EwaldRealSpace& e = std::get<EwaldRealSpace>(d.forms);
-    Real charges[NeighborList::kHalfSize];
-    for (int ii = 0; ii < NeighborList::kHalfSize; ++ii)
-      charges[ii] = static_cast<Real>(e.prefactor * d.charge[ib + ii]);
-    for (int r = 0; r < PairLayout<Real>::kRowVectors; ++r) q[r] = broadcast_rows(charges, r * PairLayout<Real>::kRows);
-  }
-  static constexpr bool active(int) { return true; }
-};
-
-template <EwaldModifier M>
-struct PairForm<EwaldRealSpace, M> {
-  using Constants = EwaldRealSpace;
-  static constexpr EwaldModifier kVariant = M;
-  template <class Real>
-  using Half = EwaldHalf<Real>;
-  template <class Real>
-  static HWY_INLINE void energy_force(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                      const PairDistance<Real>& p, SimdVec<Real>& v, SimdVec<Real>& g) {
-    ewald_energy_force<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv,
-                          p.r2, v, g);
-  }
-  template <class Real>
-  static HWY_INLINE void hessian(const PairViewOf<Real>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
-                                 const PairDistance<Real>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
-    ewald_hessian<M>(std::get<EwaldRealSpace>(d.forms), hi.q[ii / PairLayout<Real>::kRows] * j.charge, p.rinv, p.r2, a,
-                     b);
-  }
-};
-
-}  // namespace HWY_NAMESPACE
-}  // namespace vimd
-HWY_AFTER_NAMESPACE();
-
-#endif  // VIMD_FORCEFIELDS_NONBONDED_EWALD_INL_H_
