@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <stdexcept>
 #include <map>
 #include <set>
 
@@ -21,12 +22,13 @@
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
 #include "engine/thread_pinning.hpp"
-#include "forcefields/ewald.hpp"
-#include "forcefields/nonbonded_kernels.hpp"
-#include "forcefields/nonbonded_pair_term.hpp"
-#include "forcefields/pair_forms.hpp"
+#include "forcefields/nonbonded/ewald.hpp"
+#include "forcefields/nonbonded/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/pair_forms.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
+#include "simd/targets.hpp"
 
 namespace fs = std::filesystem;
 using namespace vimd;
@@ -356,7 +358,11 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
 
   try {
-    if (!simd_target.empty()) simd::use_target(simd_target);
+    try {
+      if (!simd_target.empty()) simd::use_target(simd_target);
+    } catch (const std::invalid_argument& e) {
+      throw InputError("--simd", 0, e.what());
+    }
     if (run->parsed()) return run_command(config, run_options);
     if (energy->parsed()) return energy_command(config, json);
     if (keys->parsed()) return keys_command(markdown);

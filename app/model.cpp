@@ -6,9 +6,10 @@
 #include <cstdio>
 
 #include "engine/observers.hpp"
-#include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 
@@ -16,6 +17,7 @@ std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, cons
   auto m = std::make_unique<Model>(Model{read_run_input(config_file, overrides), nullptr, {}, {}});
   const System& system = m->input.system;
   m->force_field = make_force_field(system, m->input.config.forcefield);
+  for (std::string& warning : pair_list_warnings(m->input.config, system.box)) m->input.warnings.push_back(std::move(warning));
   m->constraints = Constraints(system.constraints, system.n_atoms(), system.box);
   m->inverse_mass = system.inverse_mass();
   return m;

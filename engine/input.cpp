@@ -10,7 +10,6 @@
 #include <set>
 
 #include "engine/errors.hpp"
-#include "engine/neighbor_list.hpp"
 #include "engine/gromacs/gro.hpp"
 #include "engine/integrator.hpp"
 #include "engine/gromacs/topology.hpp"
@@ -60,18 +59,9 @@ std::string describe_atom(const System& s, int i) {
          s.atom_names[i] + ")";
 }
 
-double shortest_length(const Box& box) {
-  double shortest = INFINITY;
-  for (int k = 0; k < 3; ++k)
-    if (box.length[k] > 0) shortest = std::min(shortest, box.length[k]);
-  return shortest;
-}
-
 // Every pair inside the cut-off must have one image only: the box must be at least twice the
-// cut-off. The pair list's buffers must fit as well; where they do not, the list uses what the box
-// allows, as GROMACS shrinks its buffer, and a warning says so (a run then searches more often; a
-// single point does not care).
-std::vector<std::string> check_box(const RunConfig& c, const Box& box, int box_line) {
+// cut-off. (Whether the pair lists' buffers fit as well is the pair term's to say.)
+void check_box(const RunConfig& c, const Box& box, int box_line) {
   const auto& ff = c.forcefield;
   for (int k = 0; k < 3; ++k)
     if (box.length[k] > 0 && box.length[k] < 2 * ff.cutoff)
@@ -79,19 +69,6 @@ std::vector<std::string> check_box(const RunConfig& c, const Box& box, int box_l
                        "box length " + format("%g", box.length[k]) + " nm in " + "xyz"[k] +
                            " is shorter than twice the cutoff = 2 x " + format("%g", ff.cutoff) + " nm set in " +
                            c.file.string() + ": use a larger box or a smaller cutoff");
-  std::vector<std::string> warnings;
-  const auto fit = [&](const std::string& key, double skin) {
-    const double fitting = skin_fitting_box(box, ff.cutoff, skin);
-    if (fitting < skin)
-      warnings.push_back(c.structure.string() + ": the box (" + format("%g", shortest_length(box)) +
-                         " nm at its shortest) leaves room for cutoff + " + key + " up to half its length, so the " +
-                         key + " of " + format("%g", skin) + " nm set in " + c.file.string() + " is cut to " +
-                         format("%g", fitting) + " nm (as GROMACS shrinks its pair-list buffer to what the box "
-                         "allows); a run searches for pairs more often");
-  };
-  fit("neighbor_skin", ff.neighbor_skin);
-  if (ff.neighbor_search_skin) fit("neighbor_search_skin", *ff.neighbor_search_skin);
-  return warnings;
 }
 
 // Overlapping atoms make the first force evaluation meaningless (or infinite).
@@ -230,8 +207,7 @@ RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOv
   GroFrame frame = read_gro(c.structure);
 
   in.warnings = apply_structure(in.system, frame, c.structure, c.topology);
-  for (auto& warning : check_box(c, frame.box, static_cast<int>(frame.x.cols()) + 3))
-    in.warnings.push_back(std::move(warning));
+  check_box(c, frame.box, static_cast<int>(frame.x.cols()) + 3);
   check_overlaps(in.system, frame.x, frame.box, c.structure);
   for (const auto& warning : {net_charge_warning(in.system, c), time_step_warning(in.system, c)})
     if (warning) in.warnings.push_back(*warning);

@@ -23,8 +23,8 @@ struct RunInput {
 // InputError unless the input has velocities (read or generated): only a run needs them.
 void require_velocities(const RunInput& input);
 
-// Reads and cross-checks the inputs. Refused (InputError): a box shorter than twice cut-off plus
-// skin, atoms closer than 0.05 nm. Warned: a net charge with reaction-field or plain cut-off
+// Reads and cross-checks the inputs. Refused (InputError): a box shorter than twice the cut-off,
+// atoms closer than 0.05 nm. Warned: a net charge with reaction-field or plain cut-off
 // Coulomb, dt above a tenth of the period of the fastest unconstrained bond, atom names that differ
 // between structure and topology.
 RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOverrides& overrides = {});

@@ -1,11 +1,11 @@
 // Rigid water: SETTLE for the position stage and the batched velocity projection, the special
 // case of engine/shake_rattle_solve.cpp for clusters that are rigid isosceles triangles. The
-// batches go through the SIMD kernels of engine/settle_kernels.cpp.
+// batches go through the SIMD kernels of simd/settle_kernels.cpp.
 #include <algorithm>
 #include <cmath>
 
 #include "engine/constraint_layout.hpp"
-#include "engine/settle_kernels.hpp"
+#include "simd/settle_kernels.hpp"
 
 namespace vimd::constraint_internals {
 

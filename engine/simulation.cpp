@@ -5,7 +5,7 @@
 #include <cmath>
 #include <type_traits>
 
-#include "engine/atom_kernels.hpp"
+#include "simd/atom_kernels.hpp"
 #include "engine/errors.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"

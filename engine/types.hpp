@@ -1,5 +1,7 @@
 #pragma once
 // Basic numeric types. GROMACS units throughout: nm, ps, amu, kJ/mol, e, K.
+#include <omp.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <vector>
@@ -26,6 +28,18 @@ inline void share_owners(int n, int nt, std::vector<int>& owner) {
   owner.resize(n);
   for (int t = 0; t < nt; ++t)
     std::fill(owner.begin() + share_begin(n, t, nt), owner.begin() + share_begin(n, t + 1, nt), t);
+}
+
+// f(first, count) on each thread's contiguous share of n atoms; one share, on the calling
+// thread, below kParallelMinAtoms.
+template <class F>
+void for_atom_shares(int n, F&& f) {
+#pragma omp parallel if (n >= kParallelMinAtoms)
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const int first = share_begin(n, t, nt);
+    f(first, share_begin(n, t + 1, nt) - first);
+  }
 }
 
 }  // namespace vimd

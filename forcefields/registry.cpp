@@ -1,11 +1,11 @@
 #include "forcefields/registry.hpp"
 
 #include "forcefields/dihedral_term.hpp"
-#include "forcefields/ewald.hpp"
+#include "forcefields/nonbonded/ewald.hpp"
 #include "forcefields/ewald_mesh.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
-#include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/pairs_14.hpp"
 #include "forcefields/virtual_sites.hpp"
 

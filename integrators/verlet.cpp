@@ -6,7 +6,7 @@
 #include <string>
 #include <utility>
 
-#include "engine/atom_kernels.hpp"
+#include "simd/atom_kernels.hpp"
 #include "engine/errors.hpp"
 #include "integrators/coords_ops.hpp"
 

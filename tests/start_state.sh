@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One start state for every integrator (issue 10): frame 0 of traj.trr (positions, velocities,
+# One start state for every integrator: frame 0 of traj.trr (positions, velocities,
 # forces, box) is byte-identical whichever integrator runs, on the 8-water cluster read from a
 # 3-decimal .gro and on water216. Usage: start_state.sh VIMD_BINARY SOURCE_DIR WORK_DIR
 set -uo pipefail

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A real SIGTERM to a running `vimd run`, then `--continue` (issue 10): exit 143 with the command
+# A real SIGTERM to a running `vimd run`, then `--continue`: exit 143 with the command
 # that continues it, partial outputs and state.cpt kept; the continued run's outputs equal an
 # uninterrupted run's byte for byte (summary.json: all but wall-time fields). Also: a checkpoint of
 # another configuration is refused naming what differs, a finished run is neither continued nor

@@ -1,4 +1,4 @@
-// Stop and continue (issue 10): a run stopped at some step and continued from its state.cpt writes
+// Stop and continue: a run stopped at some step and continued from its state.cpt writes
 // exactly what the uninterrupted run writes, bit for bit, for RATTLE, SHAKE, the variational
 // integrator, RATTLE with the v-rescale thermostat and the minimiser, with 1 and 2 threads, on
 // SPC/E water216 (the neighbour list is rebuilt every few steps, so its build positions must be

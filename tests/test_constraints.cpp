@@ -8,9 +8,10 @@
 
 #include "engine/constraints.hpp"
 #include "engine/errors.hpp"
-#include "engine/settle_kernels.hpp"
-#include "forcefields/nonbonded_kernels.hpp"
+#include "simd/settle_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_kernels.hpp"
 #include "tests/constrained_systems.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 namespace {

@@ -15,8 +15,9 @@
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh.hpp"
 #include "forcefields/ewald_mesh_kernels.hpp"
-#include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_kernels.hpp"
 #include "test_ff_systems.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 namespace {

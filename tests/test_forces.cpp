@@ -14,11 +14,9 @@
 #include "forcefields/dihedral_term.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
-#include "forcefields/lennard_jones-inl.h"
-#include "forcefields/nonbonded_pair_term.hpp"
-#include "forcefields/ewald-inl.h"
+#include "tests/pair_form_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/pairs_14.hpp"
-#include "forcefields/reaction_field-inl.h"
 #include "forcefields/registry.hpp"
 #include "derivative_checks.hpp"
 #include "test_ff_systems.hpp"
@@ -28,6 +26,8 @@ namespace {
 
 // The scalar (double) instantiations of the pair kernels, from the build's static SIMD target.
 using namespace vimd::HWY_NAMESPACE;
+using testing::lj_energy_force;
+using testing::rf_energy_force;
 
 using testing::evaluate;
 using testing::expect_derivatives_match;

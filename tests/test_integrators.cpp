@@ -6,12 +6,12 @@
 #include <cmath>
 #include <random>
 
-#include "engine/atom_kernels.hpp"
+#include "simd/atom_kernels.hpp"
 #include "engine/errors.hpp"
 #include "engine/gromacs/gro.hpp"
 #include "engine/start_state.hpp"
 #include "engine/gromacs/topology.hpp"
-#include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_kernels.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/composition.hpp"
 #include "integrators/rattle.hpp"
@@ -19,6 +19,7 @@
 #include "integrators/shake.hpp"
 #include "integrators/verlet.hpp"
 #include "tests/constrained_systems.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 namespace {

@@ -18,19 +18,24 @@
 #include <tuple>
 
 #include "engine/errors.hpp"
-#include "engine/neighbor_list.hpp"
-#include "forcefields/lennard_jones-inl.h"
-#include "forcefields/nonbonded_pair_term.hpp"
-#include "forcefields/pair_lists.hpp"
-#include "forcefields/ewald-inl.h"
-#include "forcefields/reaction_field-inl.h"
+#include "forcefields/nonbonded/neighbor_list.hpp"
+#include "tests/pair_form_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/pair_lists.hpp"
 #include "test_ff_systems.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 namespace {
 
 // The scalar (double) instantiations of the pair kernels, from the build's static SIMD target.
 using namespace vimd::HWY_NAMESPACE;
+using testing::lj_energy_force;
+using testing::lj_hessian;
+using testing::rf_energy_force;
+using testing::rf_hessian;
+using testing::ewald_energy_force;
+using testing::ewald_hessian;
 
 using testing::relative_difference;
 
@@ -416,7 +421,7 @@ TEST(PairKernels, EveryAvailableSimdTargetMatchesTheScalarReference) {
   }
   simd::use_target("");
   EXPECT_EQ(simd::target_name(), targets.front());
-  EXPECT_THROW(simd::use_target("NO-SUCH-TARGET"), InputError);
+  EXPECT_THROW(simd::use_target("NO-SUCH-TARGET"), std::invalid_argument);
 }
 
 // Rows whose atom type has no LJ with any type skip the LJ terms in every kernel. The skip must

@@ -1,4 +1,4 @@
-// simd_rsqrt (engine/simd-inl.h), the 1/√x of the pair loops and of SETTLE, against 1/√x in long
+// simd_rsqrt (simd/simd-inl.h), the 1/√x of the pair loops and of SETTLE, against 1/√x in long
 // double on every SIMD target this CPU runs: the kernels' checks against brute-force sums pass at
 // 1e-12, which would not notice the double-precision refinement losing a few bits. The per-target
 // part is compiled here for each target (Highway's foreach_target re-includes this file).
@@ -6,7 +6,7 @@
 #define HWY_TARGET_INCLUDE "tests/test_simd_math.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 
-#include "engine/simd-inl.h"
+#include "simd/simd-inl.h"
 #include "hwy/highway.h"
 
 HWY_BEFORE_NAMESPACE();
@@ -34,7 +34,8 @@ HWY_AFTER_NAMESPACE();
 #include <string>
 #include <vector>
 
-#include "forcefields/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_kernels.hpp"
+#include "simd/targets.hpp"
 
 namespace vimd {
 HWY_EXPORT(RsqrtDouble);

@@ -10,13 +10,13 @@
 #include <cstdlib>
 #include <random>
 
-#include "engine/neighbor_list.hpp"
+#include "forcefields/nonbonded/neighbor_list.hpp"
 #include "engine/thread_pinning.hpp"
 #include "forcefields/dihedral_term.hpp"
 #include "forcefields/harmonic_angle.hpp"
 #include "forcefields/harmonic_bond.hpp"
-#include "forcefields/nonbonded_pair_term.hpp"
-#include "forcefields/pair_lists.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/pair_lists.hpp"
 #include "forcefields/pairs_14.hpp"
 #include "forcefields/registry.hpp"
 #include "test_ff_systems.hpp"

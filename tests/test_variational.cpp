@@ -14,7 +14,7 @@
 #include "test_ff_systems.hpp"
 #include "tests/constrained_systems.hpp"
 #include "engine/errors.hpp"
-#include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "integrators/constrained_dynamics.hpp"
 #include "integrators/explicit_rk.hpp"
 #include "integrators/projected_rk.hpp"

@@ -14,10 +14,11 @@
 #include <random>
 
 #include "engine/input.hpp"
-#include "engine/neighbor_list.hpp"
-#include "forcefields/nonbonded_kernels.hpp"
-#include "forcefields/nonbonded_pair_term.hpp"
+#include "forcefields/nonbonded/neighbor_list.hpp"
+#include "forcefields/nonbonded/nonbonded_kernels.hpp"
+#include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/registry.hpp"
+#include "simd/targets.hpp"
 
 namespace {
 

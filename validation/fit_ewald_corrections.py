@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Fits the Ewald real-space corrections of the SIMD pair kernels (forcefields/ewald-inl.h) and prints
+"""Fits the Ewald real-space corrections of the SIMD pair kernels (forcefields/nonbonded/ewald-inl.h) and prints
 their coefficients and errors (run it to check them or to refit; it writes nothing; ~10 s).
 
 The kernels, like GROMACS's nbnxm kernels, write the real-space pair terms as the bare Coulomb term

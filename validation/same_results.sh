@@ -25,6 +25,12 @@ runs=(
   "polymer-rattle|polymer|run.toml|100|"
   "polymer-vi|polymer|run.toml|20|integrator.type=\"vi\";integrator.method=\"rk4\""
   "nvt-rattle|water216|run.toml|60|integrator.thermostat=\"v-rescale\";integrator.temperature=300"
+  "pme-rattle|water900|run_pme.toml|30|"
+  "pme-mixed|water900|run_pme.toml|30|forcefield.precision=\"mixed\""
+  "pme-vi|water900|run_vi_pme.toml|4|"
+  "force-switch|water216|run.toml|40|forcefield.vdw_modifier=\"force-switch\";forcefield.vdw_switch=0.6"
+  "tip4p-vsites|tip4p2005|run.toml|30|"
+  "alkane-dihedrals|alkane|run.toml|20|"
 )
 for spec in "${runs[@]}"; do
   IFS='|' read -r name input file steps edits <<<"$spec"
