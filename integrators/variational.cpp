@@ -229,17 +229,17 @@ void VariationalIntegrator::predict(Run& run, const State& state, long step) {
   run.equations.return_to_tangent_bundle(run.q, run.v, run.qbar, step);
 }
 
-void VariationalIntegrator::evaluate(Run& run, int iteration, long step) {
+void VariationalIntegrator::evaluate(Run& run, int iteration, long step, const DynamicsPrecision& precision) {
   VariationalEquations& equations = run.equations;
   // Where q stays at q̄ through the step, the first stage's forces are computed once.
   const Forces* forces_at_q =
       equations.position_fixed() && iteration > 1 ? &equations.plus_segment().stages[0].forces : nullptr;
-  equations.evaluate_segments(run.q, run.v, step, forces_at_q);
+  equations.evaluate_segments(run.q, run.v, step, forces_at_q, /*plus_only=*/false, precision);
   if (iteration == 1)  // p⁺'s guess: M·V⁺ at the predicted w, corrected by the predictor
     parallel_assign(run.p_plus,
                     scaled_per_atom(run.problem->system.mass, equations.plus_segment().v) + run.predictor.p_offset());
   equations.tangential_at_plus(run.p_plus);
-  equations.residual(run.q, run.v, run.p_plus, run.pbar, step);
+  equations.residual(run.q, run.v, run.p_plus, run.pbar, step, precision);
   equations.step_corrections(run.q, run.qbar, run.dq, run.dv, run.dp);
 }
 
@@ -282,7 +282,6 @@ void VariationalIntegrator::update(Run& run, long step, double relaxation, bool 
 StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   Run& run = bound_run(problem, "step");
   VariationalEquations& equations = run.equations;
-  ConstrainedDynamics& dynamics = equations.dynamics();
   const long step = state.step + 1;
   const double h = settings_.dt;
 
@@ -311,17 +310,14 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   while (verdict == FixedPointControl::Verdict::update) {
     const int it = control.iterations() + 1;
     // Which evaluations may be single precision: see VariationalSettings::mixed_precision_solve.
-    const bool single_stages = mixed && it == 1;
-    const bool single_products =
-        single_stages || (mixed && control.tolerance() >= VariationalSettings::kSingleProductsMinTolerance);
-    dynamics.set_single_precision_stages(single_stages);
-    dynamics.set_single_precision_products(single_products);
-    evaluate(run, it, step);
-    dynamics.set_single_precision_stages(false);
-    dynamics.set_single_precision_products(false);
+    DynamicsPrecision precision;
+    precision.single_stages = mixed && it == 1;
+    precision.single_products =
+        precision.single_stages || (mixed && control.tolerance() >= VariationalSettings::kSingleProductsMinTolerance);
+    evaluate(run, it, step, precision);
 
     residual = std::max(max_abs(run.dv), max_abs(run.dq) / h);
-    verdict = control.judge(residual, /*may_end=*/!single_stages);
+    verdict = control.judge(residual, /*may_end=*/!precision.single_stages);
     switch (verdict) {
       case FixedPointControl::Verdict::update:
         update(run, step, control.relaxation(), /*mix=*/true);

@@ -15,6 +15,8 @@
 
 namespace vimd {
 
+struct DynamicsPrecision;  // integrators/constrained_dynamics.hpp
+
 struct VariationalSettings {
   ButcherTableau plus, minus;  // methods for the ∂⁺ and ∂⁻ segments
   double dt = 0.002;           // ps
@@ -98,7 +100,7 @@ class VariationalIntegrator : public Integrator {
   // Sets (q, v) to the step's first guess.
   void predict(Run& run, const State& state, long step);
   // Evaluates the equations at the iterate (the segments, the residual, the corrections).
-  void evaluate(Run& run, int iteration, long step);
+  void evaluate(Run& run, int iteration, long step, const DynamicsPrecision& precision);
   // Applies the corrections scaled by `relaxation`, Anderson-mixed if `mix` (and the mixer is on
   // and the update undamped), and returns to TQ.
   void update(Run& run, long step, double relaxation, bool mix);
