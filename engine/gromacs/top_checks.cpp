@@ -69,10 +69,13 @@ void check_sites(const MoleculeType& m) {
   }
 }
 
-void check_constraint_set(const MoleculeType& m) {
+namespace {
+
+// No atom pair constrained twice; the constraints by atom pair (i < j).
+std::map<std::pair<int, int>, int> constraints_by_pair(const MoleculeType& m) {
   const auto& list = m.constraints;
   const auto& lines = m.constraint_lines;
-  std::map<std::pair<int, int>, int> index;  // atom pair (i < j) -> constraint
+  std::map<std::pair<int, int>, int> index;
   for (std::size_t a = 0; a < list.size(); ++a) {
     const auto [it, inserted] = index.try_emplace(std::minmax(list[a].i, list[a].j), static_cast<int>(a));
     if (!inserted)
@@ -80,6 +83,12 @@ void check_constraint_set(const MoleculeType& m) {
                          " of molecule type '" + m.name + "' are constrained twice (first at " +
                          lines[it->second].str() + "): the constraint set is over-determined");
   }
+  return index;
+}
+
+// No triangle of constraints that is flat or impossible.
+void check_triangles(const MoleculeType& m, const std::map<std::pair<int, int>, int>& index) {
+  const auto& list = m.constraints;
   std::vector<std::vector<int>> partners(m.atoms.size());
   for (const Constraint& c : list) {
     partners[c.i].push_back(c.j);
@@ -95,13 +104,18 @@ void check_constraint_set(const MoleculeType& m) {
       std::sort(d.begin(), d.end());
       if (d[2] < (d[0] + d[1]) * (1 - 1e-6)) continue;
       const int last = std::max({ab, ak, jk->second});
-      fail(lines[last], "the constraints between atoms " + std::to_string(pair.first + 1) + ", " +
-                            std::to_string(pair.second + 1) + " and " + std::to_string(k + 1) + " of molecule type '" +
-                            m.name + "' form " + (d[2] > d[0] + d[1] ? "an impossible" : "a flat") + " triangle (" +
-                            format_number(d[0]) + " + " + format_number(d[1]) + " vs " + format_number(d[2]) +
-                            " nm): the three constraints are not independent (over-determined)");
+      fail(m.constraint_lines[last],
+           "the constraints between atoms " + std::to_string(pair.first + 1) + ", " + std::to_string(pair.second + 1) +
+               " and " + std::to_string(k + 1) + " of molecule type '" + m.name + "' form " +
+               (d[2] > d[0] + d[1] ? "an impossible" : "a flat") + " triangle (" + format_number(d[0]) + " + " +
+               format_number(d[1]) + " vs " + format_number(d[2]) +
+               " nm): the three constraints are not independent (over-determined)");
     }
-  // Clusters of coupled constraints (union-find over atoms).
+}
+
+// No cluster of coupled constraints (union-find over atoms) with more than a rigid body's 3N − 6.
+void check_clusters(const MoleculeType& m) {
+  const auto& list = m.constraints;
   std::vector<int> parent(m.atoms.size());
   for (std::size_t k = 0; k < parent.size(); ++k) parent[k] = static_cast<int>(k);
   const auto root = [&](int k) {
@@ -121,12 +135,19 @@ void check_constraint_set(const MoleculeType& m) {
   for (const auto& [r, members] : atoms) {
     const int n = static_cast<int>(members.size());
     if (n < 3 || count[r] <= 3 * n - 6) continue;
-    fail(lines[last[r]], std::to_string(count[r]) + " constraints join " + std::to_string(n) + " atoms (" +
-                             std::to_string(*members.begin() + 1) + ".." + std::to_string(*members.rbegin() + 1) +
-                             ") of molecule type '" + m.name + "', but a rigid body of " + std::to_string(n) +
-                             " atoms has only " + std::to_string(3 * n - 6) +
-                             " independent distances: the constraint set is over-determined");
+    fail(m.constraint_lines[last[r]],
+         std::to_string(count[r]) + " constraints join " + std::to_string(n) + " atoms (" +
+             std::to_string(*members.begin() + 1) + ".." + std::to_string(*members.rbegin() + 1) +
+             ") of molecule type '" + m.name + "', but a rigid body of " + std::to_string(n) + " atoms has only " +
+             std::to_string(3 * n - 6) + " independent distances: the constraint set is over-determined");
   }
+}
+
+}  // namespace
+
+void check_constraint_set(const MoleculeType& m) {
+  check_triangles(m, constraints_by_pair(m));
+  check_clusters(m);
 }
 
 }  // namespace vimd::top
