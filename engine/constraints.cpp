@@ -39,15 +39,13 @@ double parallel_max(int n, F f) {
   return result;
 }
 
-}  // namespace
-
-Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
-    : list_(std::move(list)), box_(box) {
-  const int n = size();
+// Every constraint joins two different atoms of the system at a positive length, and no pair twice
+// (the constraint matrix would be singular).
+void check_list(const std::vector<Constraint>& list, int n_atoms) {
   std::vector<std::pair<int, int>> pairs;
-  pairs.reserve(n);
-  for (int a = 0; a < n; ++a) {
-    const Constraint& c = list_[a];
+  pairs.reserve(list.size());
+  for (std::size_t a = 0; a < list.size(); ++a) {
+    const Constraint& c = list[a];
     const std::string name = "constraint " + std::to_string(a + 1) + " (atoms " + std::to_string(c.i + 1) + "-" +
                              std::to_string(c.j + 1) + ")";
     if (c.i < 0 || c.j < 0 || c.i >= n_atoms || c.j >= n_atoms)
@@ -62,92 +60,107 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     throw InputError("topology", 0,
                      "atoms " + std::to_string(dup->first + 1) + " and " + std::to_string(dup->second + 1) +
                          " are constrained twice (the constraint matrix would be singular)");
+}
 
-  // Connected components over shared atoms (union–find).
+// Connected components over shared atoms (union–find), as constraint indices, in order of their
+// first constraint.
+std::vector<std::vector<int>> coupled_clusters(const std::vector<Constraint>& list, int n_atoms) {
   std::vector<int> parent(n_atoms);
   for (int k = 0; k < n_atoms; ++k) parent[k] = k;
   auto root = [&](int k) {
     while (parent[k] != k) k = parent[k] = parent[parent[k]];
     return k;
   };
-  for (const Constraint& c : list_) parent[root(c.i)] = root(c.j);
+  for (const Constraint& c : list) parent[root(c.i)] = root(c.j);
+  std::vector<std::vector<int>> clusters;
   std::vector<int> cluster_of_root(n_atoms, -1);
-  for (int a = 0; a < n; ++a) {
-    int& id = cluster_of_root[root(list_[a].i)];
-    if (id < 0) id = static_cast<int>(clusters_.size()), clusters_.emplace_back();
-    clusters_[id].push_back(a);
+  for (int a = 0; a < static_cast<int>(list.size()); ++a) {
+    int& id = cluster_of_root[root(list[a].i)];
+    if (id < 0) id = static_cast<int>(clusters.size()), clusters.emplace_back();
+    clusters[id].push_back(a);
+  }
+  return clusters;
+}
+
+// Builds the cluster-ordered Layout, cluster by cluster.
+class LayoutBuilder {
+ public:
+  LayoutBuilder(Box box, int n_atoms) : layout_(std::make_shared<Layout>()), at_atom_(n_atoms) {
+    Layout& L = *layout_;
+    L.box = box;
+    L.n_atoms = n_atoms;
+    L.ones = Eigen::VectorXd::Ones(n_atoms);
   }
 
-  auto layout = std::make_shared<Layout>();
-  Layout& L = *layout;
-  L.box = box_;
-  L.n_atoms = n_atoms;
-  L.ones = Eigen::VectorXd::Ones(n_atoms);
-  std::vector<std::vector<int>> at_atom(n_atoms);  // local constraint indices per atom, per cluster
-  // The couplings of the constraints at positions [begin, begin + m), in their current order.
-  auto couple = [&](int begin, int m) {
-    std::vector<Layout::Coupling> couplings;
-    for (int a = 0; a < m; ++a) {
-      at_atom[L.atom_i[begin + a]].push_back(a);
-      at_atom[L.atom_j[begin + a]].push_back(a);
-    }
-    for (int a = 0; a < m; ++a)
-      for (int atom : {L.atom_i[begin + a], L.atom_j[begin + a]})
-        for (int b : at_atom[atom]) {
-          if (b == a) continue;
-          const double sa = L.atom_i[begin + a] == atom ? 1.0 : -1.0;
-          const double sb = L.atom_i[begin + b] == atom ? 1.0 : -1.0;
-          couplings.push_back({a, b, atom, sa * sb});
-        }
-    for (int a = 0; a < m; ++a) at_atom[L.atom_i[begin + a]].clear(), at_atom[L.atom_j[begin + a]].clear();
-    return couplings;
-  };
-  auto pattern_of = [](int m, const std::vector<Layout::Coupling>& couplings) {
-    std::vector<Eigen::Triplet<double>> entries;
-    for (int a = 0; a < m; ++a) entries.emplace_back(a, a, 1.0);
-    for (const auto& e : couplings) entries.emplace_back(e.a, e.b, 1.0);
-    Eigen::SparseMatrix<double> pattern(m, m);
-    pattern.setFromTriplets(entries.begin(), entries.end());
-    pattern.makeCompressed();
-    return pattern;
-  };
-  for (const auto& members : clusters_) {
+  void add_cluster(const std::vector<Constraint>& list, const std::vector<int>& members) {
+    Layout& L = *layout_;
     Layout::Cluster cl;
     cl.begin = static_cast<int>(L.atom_i.size());
     cl.end = cl.begin + static_cast<int>(members.size());
     for (int a : members) {
-      L.atom_i.push_back(list_[a].i);
-      L.atom_j.push_back(list_[a].j);
+      L.atom_i.push_back(list[a].i);
+      L.atom_j.push_back(list[a].j);
       L.original.push_back(a);
-      L.length.push_back(list_[a].length);
+      L.length.push_back(list[a].length);
     }
     const int m = cl.size();
     cl.kind = m <= kSmallMax ? Kind::Small : m <= kDenseMax ? Kind::Dense : Kind::Sparse;
     if (cl.kind == Kind::Small) {
-      cl.slot = L.n_small++;
-      L.triangles.push_back(rigid_triangle(L, cl));
-      (L.triangles.back().valid ? L.triangle_clusters : L.other_clusters).push_back(static_cast<int>(L.clusters.size()));
-      L.clusters.push_back(cl);
-      continue;
+      add_small(cl);
+      return;
     }
-    if (cl.kind == Kind::Sparse) {
-      // Order the cluster's constraints once for little fill in LDLᵀ (a linear chain becomes
-      // tridiagonal whatever order the topology lists it in); the factorisations then need no
-      // permutation per call. perm.indices()[new] = old.
-      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm;
-      Eigen::AMDOrdering<int>()(pattern_of(m, couple(cl.begin, m)), perm);
-      auto reorder = [&](auto& v) {
-        const std::vector<typename std::decay_t<decltype(v)>::value_type> old(v.begin() + cl.begin, v.begin() + cl.end);
-        for (int a = 0; a < m; ++a) v[cl.begin + a] = old[perm.indices()[a]];
-      };
-      reorder(L.atom_i);
-      reorder(L.atom_j);
-      reorder(L.original);
-      reorder(L.length);
+    if (cl.kind == Kind::Sparse) order_for_little_fill(cl);
+    add_dynamic(cl);
+  }
+
+  std::shared_ptr<const Layout> finish() {
+    Layout& L = *layout_;
+    L.consecutive_settle_batches = consecutive_settle_batches(L);
+    L.atom_begin.push_back(0);
+    for (const auto& cl : L.clusters) {
+      for (int p = cl.begin; p < cl.end; ++p)
+        for (int atom : {L.atom_i[p], L.atom_j[p]})
+          if (std::find(L.atoms.begin() + L.atom_begin.back(), L.atoms.end(), atom) == L.atoms.end())
+            L.atoms.push_back(atom);
+      L.atom_begin.push_back(static_cast<int>(L.atoms.size()));
     }
+    return std::move(layout_);
+  }
+
+ private:
+  void add_small(Layout::Cluster cl) {
+    Layout& L = *layout_;
+    cl.slot = L.n_small++;
+    L.triangles.push_back(rigid_triangle(L, cl));
+    (L.triangles.back().valid ? L.triangle_clusters : L.other_clusters).push_back(static_cast<int>(L.clusters.size()));
+    L.clusters.push_back(cl);
+  }
+
+  // Orders a sparse cluster's constraints once for little fill in LDLᵀ (a linear chain becomes
+  // tridiagonal whatever order the topology lists it in); the factorisations then need no
+  // permutation per call.
+  void order_for_little_fill(const Layout::Cluster& cl) {
+    Layout& L = *layout_;
+    const int m = cl.size();
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm;  // perm.indices()[new] = old
+    Eigen::AMDOrdering<int>()(pattern_of(m, couplings(cl.begin, m)), perm);
+    auto reorder = [&](auto& v) {
+      const std::vector<typename std::decay_t<decltype(v)>::value_type> old(v.begin() + cl.begin, v.begin() + cl.end);
+      for (int a = 0; a < m; ++a) v[cl.begin + a] = old[perm.indices()[a]];
+    };
+    reorder(L.atom_i);
+    reorder(L.atom_j);
+    reorder(L.original);
+    reorder(L.length);
+  }
+
+  // A dense or sparse cluster: its couplings, and for a sparse one where S's entries sit.
+  void add_dynamic(Layout::Cluster cl) {
+    Layout& L = *layout_;
+    const int m = cl.size();
     cl.slot = static_cast<int>(L.dynamic.size());
     Layout::Dynamic d;
-    d.couplings = couple(cl.begin, m);
+    d.couplings = couplings(cl.begin, m);
     if (cl.kind == Kind::Sparse) {
       d.pattern = pattern_of(m, d.couplings);
       auto position = [&](int row, int col) {
@@ -163,17 +176,53 @@ Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
     L.other_clusters.push_back(static_cast<int>(L.clusters.size()));
     L.clusters.push_back(cl);
   }
-  L.consecutive_settle_batches = consecutive_settle_batches(L);
-  L.atom_begin.push_back(0);
-  for (const auto& cl : L.clusters) {
-    for (int p = cl.begin; p < cl.end; ++p)
-      for (int atom : {L.atom_i[p], L.atom_j[p]})
-        if (std::find(L.atoms.begin() + L.atom_begin.back(), L.atoms.end(), atom) == L.atoms.end())
-          L.atoms.push_back(atom);
-    L.atom_begin.push_back(static_cast<int>(L.atoms.size()));
-  }
-  layout_ = std::move(layout);
 
+  // The couplings of the constraints at positions [begin, begin + m), in their current order.
+  std::vector<Layout::Coupling> couplings(int begin, int m) {
+    const Layout& L = *layout_;
+    std::vector<Layout::Coupling> found;
+    for (int a = 0; a < m; ++a) {
+      at_atom_[L.atom_i[begin + a]].push_back(a);
+      at_atom_[L.atom_j[begin + a]].push_back(a);
+    }
+    for (int a = 0; a < m; ++a)
+      for (int atom : {L.atom_i[begin + a], L.atom_j[begin + a]})
+        for (int b : at_atom_[atom]) {
+          if (b == a) continue;
+          const double sa = L.atom_i[begin + a] == atom ? 1.0 : -1.0;
+          const double sb = L.atom_i[begin + b] == atom ? 1.0 : -1.0;
+          found.push_back({a, b, atom, sa * sb});
+        }
+    for (int a = 0; a < m; ++a) at_atom_[L.atom_i[begin + a]].clear(), at_atom_[L.atom_j[begin + a]].clear();
+    return found;
+  }
+
+  // The structure of S for m constraints with these couplings (values unused).
+  static Eigen::SparseMatrix<double> pattern_of(int m, const std::vector<Layout::Coupling>& couplings) {
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int a = 0; a < m; ++a) entries.emplace_back(a, a, 1.0);
+    for (const auto& e : couplings) entries.emplace_back(e.a, e.b, 1.0);
+    Eigen::SparseMatrix<double> pattern(m, m);
+    pattern.setFromTriplets(entries.begin(), entries.end());
+    pattern.makeCompressed();
+    return pattern;
+  }
+
+  std::shared_ptr<Layout> layout_;
+  std::vector<std::vector<int>> at_atom_;  // scratch of couplings(): local constraint indices per atom
+};
+
+}  // namespace
+
+Constraints::Constraints(std::vector<Constraint> list, int n_atoms, Box box)
+    : list_(std::move(list)), box_(box) {
+  check_list(list_, n_atoms);
+  clusters_ = coupled_clusters(list_, n_atoms);
+  LayoutBuilder builder(box_, n_atoms);
+  for (const auto& members : clusters_) builder.add_cluster(list_, members);
+  layout_ = builder.finish();
+
+  const int n = size();
   work_ = std::make_unique<Workspace>();
   Workspace& ws = *work_;
   ws.factorization.factors().bind(layout_);

@@ -105,8 +105,75 @@ Layout::Triangle rigid_triangle(const Layout& L, const Layout::Cluster& cl) {
   return t;
 }
 
+namespace {
+
+// The triangle of the k-th molecule of the batch starting at `first` of the triangle clusters.
+const Layout::Triangle& batch_triangle(const Layout& L, int first, int k) {
+  return L.triangles[L.clusters[L.triangle_clusters[first + k]].slot];
+}
+
+// What one settle_positions call works on, for its per-batch steps.
+struct SettleCall {
+  const Layout& L;
+  const Coords& q_ref;
+  Coords& q;
+  const double* w;
+  double tolerance;
+  int max_iterations;
+  Workspace& ws;
+  const StepVelocity* velocity;
+};
+
+// A SETTLE batch's input: positions as stored where its molecules are consecutive atoms
+// (first_atom ≥ 0), else gathered molecule by molecule.
+void load_settle_batch(const SettleCall& call, ConsecutiveLoad load, int first, int count, int first_atom,
+                       double* in) {
+  const auto& [L, q_ref, q, w, tolerance, max_iterations, ws, velocity] = call;
+  if (first_atom >= 0) {
+    load(q_ref.data() + 3 * first_atom, count, in, kRefAx);
+    load(q.data() + 3 * first_atom, count, in, kQAx);
+    for (int k = 0; k < count; ++k) settle_prepare_constants(batch_triangle(L, first, k), w, in, k);
+  } else {
+    for (int k = 0; k < count; ++k) settle_prepare(batch_triangle(L, first, k), q_ref, q, w, in, k);
+  }
+  pad_batch(in, kSettleInFields, count);
+}
+
+// Lane k's outcome: Newton where SETTLE does not apply, else SETTLE's positions (where it rotated)
+// and step velocity, unless `stored` (the whole batch's already went out in vectors).
+void finish_settle_molecule(const SettleCall& call, int c, const double* result, int k, bool stored) {
+  const auto& [L, q_ref, q, w, tolerance, max_iterations, ws, velocity] = call;
+  const Layout::Cluster& cl = L.clusters[c];
+  const auto status = static_cast<SettleStatus>(result[kStatus * kSettleBatch + k]);
+  if (status == SettleStatus::newton) {
+    ws.record(c, solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin));
+    if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
+    return;
+  }
+  const Layout::Triangle& t = L.triangles[cl.slot];
+  const int side_position[3] = {t.ab, t.ac, t.bc};
+  const bool rotated = status == SettleStatus::rotated;
+  ClusterOutcome out;
+  out.iterations = rotated ? 1 : 0;
+  out.worst = cl.begin + side_position[static_cast<int>(result[kWorstSide * kSettleBatch + k])];
+  out.deviation = result[kDeviation * kSettleBatch + k];
+  ws.record(c, out);
+  if (stored) return;
+  // Where q already satisfies the constraints it stays as it is; the velocities follow the same
+  // formula as Layout::set_step_velocity, computed in the kernel's vectors.
+  const int atoms[3] = {t.apex, t.h1, t.h2};
+  for (int a = 0; a < 3; ++a)
+    for (int d = 0; d < 3; ++d) {
+      if (rotated) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
+      if (velocity) velocity->v(d, atoms[a]) = result[(kVelAx + 3 * a + d) * kSettleBatch + k];
+    }
+}
+
+}  // namespace
+
 void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const double* w, double tolerance,
                       int max_iterations, Workspace& ws, const StepVelocity* velocity) {
+  const SettleCall call{L, q_ref, q, w, tolerance, max_iterations, ws, velocity};
   const SettleKernel kernel = simd::settle_kernel();
   const ConsecutiveLoad load = simd::consecutive_load();
   const ConsecutiveStore store = simd::consecutive_store();
@@ -120,18 +187,8 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
   for (int batch = 0; batch < n_batches; ++batch) {
     double in[kSettleInFields * kSettleBatch], result[kSettleOutFields * kSettleBatch];
     const int first = batch * kSettleBatch, count = std::min(n_triangles - first, kSettleBatch);
-    auto triangle = [&](int k) -> const Layout::Triangle& {
-      return L.triangles[L.clusters[L.triangle_clusters[first + k]].slot];
-    };
     const int first_atom = L.consecutive_settle_batches[batch];
-    if (first_atom >= 0) {
-      load(q_ref.data() + 3 * first_atom, count, in, kRefAx);
-      load(q.data() + 3 * first_atom, count, in, kQAx);
-      for (int k = 0; k < count; ++k) settle_prepare_constants(triangle(k), w, in, k);
-    } else {
-      for (int k = 0; k < count; ++k) settle_prepare(triangle(k), q_ref, q, w, in, k);
-    }
-    pad_batch(in, kSettleInFields, count);
+    load_settle_batch(call, load, first, count, first_atom, in);
     kernel(count, params, in, result);
     const double* status_of = result + kStatus * kSettleBatch;
     const bool whole = first_atom >= 0 && std::none_of(status_of, status_of + count, [](double s) {
@@ -141,33 +198,8 @@ void settle_positions(const Layout& L, const Coords& q_ref, Coords& q, const dou
       store(result, kNewAx, count, q.data() + 3 * first_atom);
       if (velocity) store(result, kVelAx, count, velocity->v.data() + 3 * first_atom);
     }
-    for (int k = 0; k < count; ++k) {
-      const int c = L.triangle_clusters[first + k];
-      const Layout::Cluster& cl = L.clusters[c];
-      const auto status = static_cast<SettleStatus>(status_of[k]);
-      if (status == SettleStatus::newton) {
-        ws.record(c, solve_small_positions(L, cl, q_ref, q, w, tolerance, max_iterations, ws.lambda.data() + cl.begin));
-        if (velocity) L.set_step_velocity(c, q_ref, q, *velocity);
-        continue;
-      }
-      const Layout::Triangle& t = L.triangles[cl.slot];
-      const int side_position[3] = {t.ab, t.ac, t.bc};
-      const bool rotated = status == SettleStatus::rotated;
-      ClusterOutcome out;
-      out.iterations = rotated ? 1 : 0;
-      out.worst = cl.begin + side_position[static_cast<int>(result[kWorstSide * kSettleBatch + k])];
-      out.deviation = result[kDeviation * kSettleBatch + k];
-      ws.record(c, out);
-      if (whole) continue;
-      // Where q already satisfies the constraints it stays as it is; the velocities follow the same
-      // formula as Layout::set_step_velocity, computed in the kernel's vectors.
-      const int atoms[3] = {t.apex, t.h1, t.h2};
-      for (int a = 0; a < 3; ++a)
-        for (int d = 0; d < 3; ++d) {
-          if (rotated) q(d, atoms[a]) = result[(kNewAx + 3 * a + d) * kSettleBatch + k];
-          if (velocity) velocity->v(d, atoms[a]) = result[(kVelAx + 3 * a + d) * kSettleBatch + k];
-        }
-    }
+    for (int k = 0; k < count; ++k)
+      finish_settle_molecule(call, L.triangle_clusters[first + k], result, k, whole);
   }
 }
 

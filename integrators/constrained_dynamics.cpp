@@ -26,12 +26,12 @@ Evaluation ConstrainedDynamics::evaluation(bool single_precision) {
 }
 
 void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q,
-                                   bool segment_start) {
+                                   bool segment_start, const DynamicsPrecision& precision) {
   const int n = n_atoms();
   const Eigen::VectorXd& inverse_masses = inverse_mass();
   point.q = q;
   point.v = v;
-  Evaluation how = evaluation(single_precision_stages_ && !segment_start);
+  Evaluation how = evaluation(precision.single_stages && !segment_start);
   how.keep_masks = keep_masks_;
   if (forces_at_q)
     point.forces = *forces_at_q;
@@ -49,15 +49,16 @@ void ConstrainedDynamics::evaluate(const Coords& q, const Coords& v, DynamicsPoi
   point.lagrangian = kinetic_energy(mass(), v) - point.forces.potential;
 }
 
-void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coords& out, const Forces* forces_at_q) {
+void ConstrainedDynamics::hessian_vector(const Coords& q, const Coords& u, Coords& out, const Forces* forces_at_q,
+                                         const DynamicsPrecision& precision) {
   keep_masks_ = true;
-  Evaluation how = evaluation(single_precision_products_);
+  Evaluation how = evaluation(precision.single_products);
   if (forces_at_q) how.masks = &forces_at_q->masks;
   problem_.force_field.hessian_vector(q, u, out, how);
 }
 
 void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
-                                  Coords* deferred_hvp) {
+                                  Coords* deferred_hvp, const DynamicsPrecision& precision) {
   const int n = n_atoms();
   const Eigen::VectorXd& inverse_masses = inverse_mass();
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
@@ -73,7 +74,7 @@ void ConstrainedDynamics::add_vjp(const DynamicsPoint& point, const Coords& a_ba
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) deferred_hvp->col(i) += u_tangent_.col(i);
   } else {
-    hessian_vector(point.q, u_tangent_, hessian_u_, &point.forces);
+    hessian_vector(point.q, u_tangent_, hessian_u_, &point.forces, precision);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) q_bar.col(i) -= hessian_u_.col(i);
   }

@@ -19,6 +19,16 @@ struct DynamicsPoint {
   double lagrangian = 0;                // L(q, v) (NaN without V)
 };
 
+// Which evaluations use the force field's single-precision pair kernels, given with each
+// evaluation: the stages inside a segment (a segment's start stays double: its forces are the
+// state's, and a solve reuses them), and the Hessian–vector products. For a solve's first
+// iteration, and its products where the tolerance is far above their rounding
+// (VariationalSettings::mixed_precision_solve). Double by default.
+struct DynamicsPrecision {
+  bool single_stages = false;
+  bool single_products = false;
+};
+
 class ConstrainedDynamics {
  public:
   explicit ConstrainedDynamics(Problem& problem);
@@ -31,26 +41,22 @@ class ConstrainedDynamics {
   // Starts a variational step at q (ForceField::start_step): this and every later evaluation is
   // over the step's pair set, until the next start.
   void start_step(const Coords& q);
-  // While on, the force field's single-precision pair kernels evaluate the stages inside a
-  // segment (a segment's start stays double: its forces are the state's, and a solve reuses them),
-  // and the Hessian–vector products. For a solve's first iteration, and its products where the
-  // tolerance is far above their rounding (VariationalSettings::mixed_precision_solve).
-  void set_single_precision_stages(bool on) { single_precision_stages_ = on; }
-  void set_single_precision_products(bool on) { single_precision_products_ = on; }
-  // ∇²V(q) u, in the precision set above. forces_at_q: an evaluation at exactly q (its masks save work).
-  void hessian_vector(const Coords& q, const Coords& u, Coords& out, const Forces* forces_at_q = nullptr);
+  // ∇²V(q) u, in single precision with precision.single_products. forces_at_q: an evaluation at
+  // exactly q (its masks save work).
+  void hessian_vector(const Coords& q, const Coords& u, Coords& out, const Forces* forces_at_q = nullptr,
+                      const DynamicsPrecision& precision = {});
 
   // Evaluates the field at (q, v); `segment_start`: (q, v) starts a segment. `forces_at_q`, when
   // given, must be the forces at exactly this q and saves the force evaluation.
   void evaluate(const Coords& q, const Coords& v, DynamicsPoint& point, const Forces* forces_at_q = nullptr,
-                bool segment_start = true);
+                bool segment_start = true, const DynamicsPrecision& precision = {});
 
   // q_bar += ā·∂A/∂q and v_bar += ā·∂A/∂v at `point`: with u = M⁻¹ā, z = S⁻¹Gu, ũ = u − M⁻¹Gᵀz,
   //   ā·∂A/∂q = −∇²V ũ + Σ_a (λ_a H_a ũ − z_a H_a A),   ā·∂A/∂v = −2 Σ_a z_a H_a v.
   // With `deferred_hvp` given, the −∇²V ũ term is left out and ũ is added to *deferred_hvp instead,
   // so that several VJPs at the same q can share one Hessian–vector product (∇²V is linear in ũ).
   void add_vjp(const DynamicsPoint& point, const Coords& a_bar, Coords& q_bar, Coords& v_bar,
-               Coords* deferred_hvp = nullptr);
+               Coords* deferred_hvp = nullptr, const DynamicsPrecision& precision = {});
 
   Problem& problem() { return problem_; }
   const Constraints& constraints() const { return problem_.constraints; }
@@ -61,7 +67,6 @@ class ConstrainedDynamics {
  private:
   Problem& problem_;
   Energies energies_ = Energies::everywhere;
-  bool single_precision_stages_ = false, single_precision_products_ = false;
   StepPairSet step_pairs_;
   bool in_step_ = false;
   // Once a Hessian–vector product has been asked for, force passes keep their masks for the

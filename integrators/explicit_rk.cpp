@@ -10,7 +10,7 @@ ExplicitRungeKutta::ExplicitRungeKutta(ButcherTableau tableau) : tableau_(std::m
 }
 
 void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q, const Coords& v, double tau,
-                                 Segment& seg, const Forces* forces_at_q) {
+                                 Segment& seg, const Forces* forces_at_q, const DynamicsPrecision& precision) {
   const int s = stages();
   const int n = static_cast<int>(q.cols());
   const Eigen::MatrixXd& a = tableau_.a;
@@ -21,7 +21,7 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
   stage_v_.resize(3, n);
   for (int k = 0; k < s; ++k) {
     if (k == 0) {
-      dynamics.evaluate(q, v, seg.stages[0], forces_at_q);
+      dynamics.evaluate(q, v, seg.stages[0], forces_at_q, /*segment_start=*/true, precision);
       continue;
     }
     // Y_k = y₀ + τ Σ_{j<k} a_kj K_j, with K_j = (v_j, A_j, L_j).
@@ -36,7 +36,7 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
       stage_q_.col(i) = q.col(i) + tau * dq;
       stage_v_.col(i) = v.col(i) + tau * dv;
     }
-    dynamics.evaluate(stage_q_, stage_v_, seg.stages[k], nullptr, /*segment_start=*/false);
+    dynamics.evaluate(stage_q_, stage_v_, seg.stages[k], nullptr, /*segment_start=*/false, precision);
   }
   seg.q.resize(3, n);
   seg.v.resize(3, n);
@@ -57,7 +57,7 @@ void ExplicitRungeKutta::forward(ConstrainedDynamics& dynamics, const Coords& q,
 
 void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, const Coords& q_seed,
                              const Coords* v_seed, double s_seed, Coords& q_bar, Coords& v_bar,
-                             Coords* start_hvp) {
+                             Coords* start_hvp, const DynamicsPrecision& precision) {
   const int s = stages();
   const int n = static_cast<int>(q_seed.cols());
   const double tau = seg.tau;
@@ -98,7 +98,7 @@ void ExplicitRungeKutta::vjp(ConstrainedDynamics& dynamics, const Segment& seg, 
       yv.col(i) = tau * kq + ks * mass[i] * stage.v.col(i);
     }
     // Stage 0 sits at the segment's start (a_0j = 0): its product may be deferred.
-    if (v_reached) dynamics.add_vjp(stage, k_v_bar_, yq, yv, k == 0 ? start_hvp : nullptr);
+    if (v_reached) dynamics.add_vjp(stage, k_v_bar_, yq, yv, k == 0 ? start_hvp : nullptr, precision);
 #pragma omp parallel for schedule(static) if (n >= kParallelMinAtoms)
     for (int i = 0; i < n; ++i) {
       q_bar.col(i) += yq.col(i);

@@ -30,13 +30,14 @@ class OneStepMethod {
   virtual int stages() const = 0;
   // Φ_τ(q, v) into seg. `forces_at_q`, when known, saves the first evaluation.
   virtual void forward(ConstrainedDynamics& dynamics, const Coords& q, const Coords& v, double tau, Segment& seg,
-                       const Forces* forces_at_q = nullptr) = 0;
+                       const Forces* forces_at_q = nullptr, const DynamicsPrecision& precision = {}) = 0;
   // (q_bar, v_bar) = (Q̄, V̄, S̄)·DΦ_τ at the segment's start; V̄ = 0 when v_seed is null.
   // Overwrites q_bar and v_bar. With `start_hvp` given, the Hessian–vector product at the start
   // point is deferred: its direction is added to *start_hvp and −∇²V(q₀)·(*start_hvp) is left for
   // the caller to subtract from q_bar (one product for several segments starting at q₀).
   virtual void vjp(ConstrainedDynamics& dynamics, const Segment& seg, const Coords& q_seed, const Coords* v_seed,
-                   double s_seed, Coords& q_bar, Coords& v_bar, Coords* start_hvp = nullptr) = 0;
+                   double s_seed, Coords& q_bar, Coords& v_bar, Coords* start_hvp = nullptr,
+                   const DynamicsPrecision& precision = {}) = 0;
 };
 
 class ExplicitRungeKutta : public OneStepMethod {
@@ -48,12 +49,13 @@ class ExplicitRungeKutta : public OneStepMethod {
   const ButcherTableau& tableau() const { return tableau_; }
 
   void forward(ConstrainedDynamics& dynamics, const Coords& q, const Coords& v, double tau, Segment& seg,
-               const Forces* forces_at_q = nullptr) override;
+               const Forces* forces_at_q = nullptr, const DynamicsPrecision& precision = {}) override;
   // Discrete adjoint, k = s..1: K̄_k = τ(b_k ȳ₁ + Σ_{j>k} a_jk Ȳ_j), Ȳ_k = K̄_k·DF(Y_k), ȳ₀ = ȳ₁ + Σ_k Ȳ_k,
   // with Ȳ_q = k̄_v·∂A/∂q + k̄_S f and Ȳ_v = k̄_q + k̄_v·∂A/∂v + k̄_S M v. A stage whose k̄_v is
   // structurally zero (the last one when V̄ = 0) costs no Hessian–vector product.
   void vjp(ConstrainedDynamics& dynamics, const Segment& seg, const Coords& q_seed, const Coords* v_seed,
-           double s_seed, Coords& q_bar, Coords& v_bar, Coords* start_hvp = nullptr) override;
+           double s_seed, Coords& q_bar, Coords& v_bar, Coords* start_hvp = nullptr,
+           const DynamicsPrecision& precision = {}) override;
 
  private:
   ButcherTableau tableau_;

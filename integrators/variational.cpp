@@ -229,17 +229,17 @@ void VariationalIntegrator::predict(Run& run, const State& state, long step) {
   run.equations.return_to_tangent_bundle(run.q, run.v, run.qbar, step);
 }
 
-void VariationalIntegrator::evaluate(Run& run, int iteration, long step) {
+void VariationalIntegrator::evaluate(Run& run, int iteration, long step, const DynamicsPrecision& precision) {
   VariationalEquations& equations = run.equations;
   // Where q stays at q̄ through the step, the first stage's forces are computed once.
   const Forces* forces_at_q =
       equations.position_fixed() && iteration > 1 ? &equations.plus_segment().stages[0].forces : nullptr;
-  equations.evaluate_segments(run.q, run.v, step, forces_at_q);
+  equations.evaluate_segments(run.q, run.v, step, forces_at_q, /*plus_only=*/false, precision);
   if (iteration == 1)  // p⁺'s guess: M·V⁺ at the predicted w, corrected by the predictor
     parallel_assign(run.p_plus,
                     scaled_per_atom(run.problem->system.mass, equations.plus_segment().v) + run.predictor.p_offset());
   equations.tangential_at_plus(run.p_plus);
-  equations.residual(run.q, run.v, run.p_plus, run.pbar, step);
+  equations.residual(run.q, run.v, run.p_plus, run.pbar, step, precision);
   equations.step_corrections(run.q, run.qbar, run.dq, run.dv, run.dp);
 }
 
@@ -279,13 +279,15 @@ void VariationalIntegrator::update(Run& run, long step, double relaxation, bool 
   parallel_assign(run.v, run.v_trial);
 }
 
+// How a solve ended: the controller's last verdict and the residual it leaves.
+struct VariationalIntegrator::SolveOutcome {
+  FixedPointControl::Verdict verdict;
+  double residual;
+};
+
 StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   Run& run = bound_run(problem, "step");
-  VariationalEquations& equations = run.equations;
-  ConstrainedDynamics& dynamics = equations.dynamics();
   const long step = state.step + 1;
-  const double h = settings_.dt;
-
   // One potential for the whole step where the force jumps at the cut-off: the pairs inside it at q̄
   // (known before the solve), each continued smoothly past the cut-off. The step's discrete
   // Lagrangian L_h,k is then smooth, so the iteration converges to any tolerance; the steps'
@@ -296,32 +298,41 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   run.equations.dynamics().start_step(run.qbar);
   predict(run, state, step);
   if (run.mixer) run.mixer->restart();
+  run.control.begin(step_tolerance(run, state));
+  const SolveOutcome outcome =
+      solve(run, step, settings_.mixed_precision_solve && problem.force_field.has_single_precision());
+  accept(run, outcome, state);
+  return report(run, outcome);
+}
+
+double VariationalIntegrator::step_tolerance(const Run& run, const State& state) const {
+  const double h = settings_.dt;
   // Updates below a few ulps of the positions (seen through /h) and velocities are round-off.
   const double round_off = 8 * std::numeric_limits<double>::epsilon() * (max_abs(state.q) / h + max_abs(state.v));
-  FixedPointControl& control = run.control;
   double tolerance = settings_.tolerance;
   if (settings_.tolerance_from_offset) {
     const double offset = run.predictor.newest_offset_size(h);
     if (offset > 0) tolerance = VariationalSettings::kToleranceOfOffset * offset;
   }
-  control.begin(std::max(tolerance, round_off));
-  const bool mixed = settings_.mixed_precision_solve && problem.force_field.has_single_precision();
+  return std::max(tolerance, round_off);
+}
+
+VariationalIntegrator::SolveOutcome VariationalIntegrator::solve(Run& run, long step, bool mixed) {
+  FixedPointControl& control = run.control;
+  const double h = settings_.dt;
   double residual = std::numeric_limits<double>::infinity();
   FixedPointControl::Verdict verdict = FixedPointControl::Verdict::update;
   while (verdict == FixedPointControl::Verdict::update) {
     const int it = control.iterations() + 1;
     // Which evaluations may be single precision: see VariationalSettings::mixed_precision_solve.
-    const bool single_stages = mixed && it == 1;
-    const bool single_products =
-        single_stages || (mixed && control.tolerance() >= VariationalSettings::kSingleProductsMinTolerance);
-    dynamics.set_single_precision_stages(single_stages);
-    dynamics.set_single_precision_products(single_products);
-    evaluate(run, it, step);
-    dynamics.set_single_precision_stages(false);
-    dynamics.set_single_precision_products(false);
+    DynamicsPrecision precision;
+    precision.single_stages = mixed && it == 1;
+    precision.single_products =
+        precision.single_stages || (mixed && control.tolerance() >= VariationalSettings::kSingleProductsMinTolerance);
+    evaluate(run, it, step, precision);
 
     residual = std::max(max_abs(run.dv), max_abs(run.dq) / h);
-    verdict = control.judge(residual, /*may_end=*/!single_stages);
+    verdict = control.judge(residual, /*may_end=*/!precision.single_stages);
     switch (verdict) {
       case FixedPointControl::Verdict::update:
         update(run, step, control.relaxation(), /*mix=*/true);
@@ -330,17 +341,7 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
       case FixedPointControl::Verdict::settled_at_jump:
         break;
       case FixedPointControl::Verdict::converged_by_update:
-        // Spend only what the updated point's ∂⁺ needs (∂⁻ is not), no residual to confirm it.
-        if (equations.position_fixed() && settings_.linear_final_segment) {
-          parallel_assign(run.v_before_update, run.v);
-          update(run, step, 1.0, /*mix=*/false);
-          equations.advance_plus_segment_linearly(run.v, run.v_before_update, step);
-        } else {
-          update(run, step, 1.0, /*mix=*/false);
-          equations.evaluate_segments(
-              run.q, run.v, step, equations.position_fixed() ? &equations.plus_segment().stages[0].forces : nullptr,
-              /*plus_only=*/true);
-        }
+        finish_by_update(run, step);
         residual = control.predicted_residual();
         break;
       case FixedPointControl::Verdict::not_finite:
@@ -355,10 +356,29 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
                                    format_tolerance(control.tolerance()) + " nm/ps)");
     }
   }
+  return {verdict, residual};
+}
 
+void VariationalIntegrator::finish_by_update(Run& run, long step) {
+  VariationalEquations& equations = run.equations;
+  // Spend only what the updated point's ∂⁺ needs (∂⁻ is not), no residual to confirm it.
+  if (equations.position_fixed() && settings_.linear_final_segment) {
+    parallel_assign(run.v_before_update, run.v);
+    update(run, step, 1.0, /*mix=*/false);
+    equations.advance_plus_segment_linearly(run.v, run.v_before_update, step);
+  } else {
+    update(run, step, 1.0, /*mix=*/false);
+    equations.evaluate_segments(run.q, run.v, step,
+                                equations.position_fixed() ? &equations.plus_segment().stages[0].forces : nullptr,
+                                /*plus_only=*/true);
+  }
+}
+
+void VariationalIntegrator::accept(Run& run, const SolveOutcome& outcome, State& state) const {
+  VariationalEquations& equations = run.equations;
   // Accept w: (q̄, p̄) ← (∂⁺(w), tangential part at ∂⁺(w) of p⁺ (+ δp when w was evaluated)).
   parallel_assign(run.qbar, equations.x_plus());
-  if (verdict == FixedPointControl::Verdict::converged_by_update)
+  if (outcome.verdict == FixedPointControl::Verdict::converged_by_update)
     parallel_assign(run.pbar, run.p_plus);
   else
     parallel_assign(run.pbar, run.p_plus + run.dp);
@@ -366,16 +386,18 @@ StepReport VariationalIntegrator::step(Problem& problem, State& state) {
   equations.plus_segment_momentum(run.plus_segment_momentum);
   run.predictor.record(run.q, run.v, run.pbar, run.plus_segment_momentum);
   write_state(run, state);
+}
 
-  StepReport report;
-  report.iterations = control.iterations();
-  report.residual = residual;
+StepReport VariationalIntegrator::report(const Run& run, const SolveOutcome& outcome) const {
+  StepReport out;
+  out.iterations = run.control.iterations();
+  out.residual = outcome.residual;
   const Vec3 momentum = run.pbar.rowwise().sum();
-  report.diagnostics = {static_cast<double>(report.iterations), residual,
-                        verdict == FixedPointControl::Verdict::settled_at_jump ? 1.0 : 0.0,
-                        momentum.x(), momentum.y(), momentum.z()};
-  if (settings_.tolerance_from_offset) report.diagnostics.push_back(control.tolerance());
-  return report;
+  out.diagnostics = {static_cast<double>(out.iterations), outcome.residual,
+                     outcome.verdict == FixedPointControl::Verdict::settled_at_jump ? 1.0 : 0.0,
+                     momentum.x(), momentum.y(), momentum.z()};
+  if (settings_.tolerance_from_offset) out.diagnostics.push_back(run.control.tolerance());
+  return out;
 }
 
 }  // namespace vimd

@@ -15,6 +15,8 @@
 
 namespace vimd {
 
+struct DynamicsPrecision;  // integrators/constrained_dynamics.hpp
+
 struct VariationalSettings {
   ButcherTableau plus, minus;  // methods for the ∂⁺ and ∂⁻ segments
   double dt = 0.002;           // ps
@@ -97,8 +99,19 @@ class VariationalIntegrator : public Integrator {
   Run& bound_run(Problem& problem, const char* caller);
   // Sets (q, v) to the step's first guess.
   void predict(Run& run, const State& state, long step);
+  struct SolveOutcome;
+  // The solve's tolerance for this step: the set one (or the predictor's offset's share of it),
+  // no tighter than the state's round-off.
+  double step_tolerance(const Run& run, const State& state) const;
+  // Iterates from the prediction until the controller stops; `mixed`: a mixed-precision solve.
+  SolveOutcome solve(Run& run, long step, bool mixed);
   // Evaluates the equations at the iterate (the segments, the residual, the corrections).
-  void evaluate(Run& run, int iteration, long step);
+  void evaluate(Run& run, int iteration, long step, const DynamicsPrecision& precision);
+  // A predicted stop: the full update, and the ∂⁺ segment at the updated point.
+  void finish_by_update(Run& run, long step);
+  // Takes the solved w as the step: (q̄, p̄), the predictor's record and the State.
+  void accept(Run& run, const SolveOutcome& outcome, State& state) const;
+  StepReport report(const Run& run, const SolveOutcome& outcome) const;
   // Applies the corrections scaled by `relaxation`, Anderson-mixed if `mix` (and the mixer is on
   // and the update undamped), and returns to TQ.
   void update(Run& run, long step, double relaxation, bool mix);

@@ -27,12 +27,12 @@ VariationalEquations::VariationalEquations(Problem& problem, const ButcherTablea
 }
 
 void VariationalEquations::evaluate_segments(const Coords& q, const Coords& v, long step, const Forces* forces_at_q,
-                                             bool plus_only) {
-  plus_.forward(dynamics_, q, v, h_ * alpha_plus_, plus_segment_, forces_at_q);
+                                             bool plus_only, const DynamicsPrecision& precision) {
+  plus_.forward(dynamics_, q, v, h_ * alpha_plus_, plus_segment_, forces_at_q, precision);
   projection_.project(plus_segment_.q, projected_plus_, step);
   if (alpha_minus_ != 0 && !plus_only) {
     // Both segments start at w: the first stage's forces are shared.
-    minus_.forward(dynamics_, q, v, h_ * alpha_minus_, minus_segment_, &plus_segment_.stages[0].forces);
+    minus_.forward(dynamics_, q, v, h_ * alpha_minus_, minus_segment_, &plus_segment_.stages[0].forces, precision);
     projection_.project(minus_segment_.q, projected_minus_, step);
   }
   euclidean_at_plus_.set_point(projected_plus_.x);
@@ -55,20 +55,21 @@ void VariationalEquations::plus_segment_momentum(Coords& out) {
 }
 
 void VariationalEquations::residual(const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus,
-                                    long step) {
+                                    long step, const DynamicsPrecision& precision) {
   projection_.pull_back(projected_plus_, p_plus, p_hat_, step);
   parallel_assign(p_hat_, -p_hat_);
   if (alpha_minus_ != 0) {
     // Both segments start at q: one Hessian–vector product there serves both reverse passes.
     start_direction_.setZero();
-    plus_.vjp(dynamics_, plus_segment_, p_hat_, nullptr, 1.0, rho_q_, rho_v_, &start_direction_);
+    plus_.vjp(dynamics_, plus_segment_, p_hat_, nullptr, 1.0, rho_q_, rho_v_, &start_direction_, precision);
     projection_.pull_back(projected_minus_, p_minus, p_hat_, step);
-    minus_.vjp(dynamics_, minus_segment_, p_hat_, nullptr, -1.0, minus_q_bar_, minus_v_bar_, &start_direction_);
-    dynamics_.hessian_vector(q, start_direction_, start_hvp_, &plus_segment_.stages[0].forces);
+    minus_.vjp(dynamics_, minus_segment_, p_hat_, nullptr, -1.0, minus_q_bar_, minus_v_bar_, &start_direction_,
+               precision);
+    dynamics_.hessian_vector(q, start_direction_, start_hvp_, &plus_segment_.stages[0].forces, precision);
     parallel_assign(rho_q_, rho_q_ + (minus_q_bar_ - start_hvp_));
     parallel_assign(rho_v_, rho_v_ + minus_v_bar_);
   } else {
-    plus_.vjp(dynamics_, plus_segment_, p_hat_, nullptr, 1.0, rho_q_, rho_v_);
+    plus_.vjp(dynamics_, plus_segment_, p_hat_, nullptr, 1.0, rho_q_, rho_v_, nullptr, precision);
     parallel_assign(rho_q_, rho_q_ + p_minus);
   }
   const Constraints& constraints = problem_.constraints;

@@ -22,7 +22,7 @@ class VariationalEquations {
   VariationalEquations(Problem& problem, const ButcherTableau& plus, const ButcherTableau& minus, double h,
                        double alpha_minus, double alpha_plus, const std::string& projection);
 
-  // The vector field every segment evaluates (and its evaluation options).
+  // The vector field every segment evaluates.
   ConstrainedDynamics& dynamics() { return dynamics_; }
 
   // With α⁻ = 0, ∂⁻(w) = q: the position equation holds exactly with q = q̄, so q stays at q̄
@@ -32,7 +32,7 @@ class VariationalEquations {
   // The segments from w = (q, v): ∂⁺ always, ∂⁻ unless `plus_only` (and only where α⁻ ≠ 0).
   // `forces_at_q`, when given, must be the forces at exactly q.
   void evaluate_segments(const Coords& q, const Coords& v, long step, const Forces* forces_at_q = nullptr,
-                         bool plus_only = false);
+                         bool plus_only = false, const DynamicsPrecision& precision = {});
   // The ∂⁺ segment after w's velocity changed from v_before to v (q unchanged, α⁻ = 0), to first
   // order with the approximate Jacobian (∂Q⁺/∂v ≈ τ⁺, ∂V⁺/∂v ≈ 1): Q⁺ += τ⁺Δv, V⁺ += Δv,
   // x⁺ = P(Q⁺). For a solve's last update, Δv is small as the tolerance over the contraction
@@ -56,7 +56,8 @@ class VariationalEquations {
   // r = (−p̂⁺, 0, +1)·DΦ_{τ⁺} + (p̂⁻, 0, −1)·DΦ_{τ⁻} (or + (p⁻, 0) where τ⁻ = 0) with
   // p̂± = p±·DP(Q±), then ν = (GGᵀ)⁻¹G r_v, ρ_v = r_v − Gᵀν, ρ_q = Π(r_q − Ġᵀν), all at q.
   // Needs evaluate_segments(q, v) first.
-  void residual(const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step);
+  void residual(const Coords& q, const Coords& v, const Coords& p_plus, const Coords& p_minus, long step,
+                const DynamicsPrecision& precision = {});
   const Coords& rho_q() const { return rho_q_; }
   const Coords& rho_v() const { return rho_v_; }
 
