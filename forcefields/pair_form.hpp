@@ -15,7 +15,7 @@
 #include <string>
 #include <type_traits>
 
-#include "engine/config.hpp"
+#include "forcefields/settings.hpp"
 #include "forcefields/switch_function.hpp"
 
 namespace vimd {
