@@ -16,6 +16,7 @@
 #include <set>
 
 #include "app/model.hpp"
+#include "app/run_schema.hpp"
 #include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "engine/observers.hpp"
@@ -27,8 +28,10 @@
 #include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/nonbonded/pair_forms.hpp"
 #include "forcefields/registry.hpp"
+#include "forcefields/settings.hpp"
 #include "integrators/registry.hpp"
 #include "simd/targets.hpp"
+#include "integrators/settings.hpp"
 
 namespace fs = std::filesystem;
 using namespace vimd;
@@ -112,7 +115,7 @@ fs::path run_dir;
 int run_command(const fs::path& config_file, const RunOptions& options) {
   std::unique_ptr<Model> m = load_and_warn(config_file);
   RunConfig& config = m->input.config;
-  if (options.steps >= 0) config.integrator.steps = options.steps;
+  if (options.steps >= 0) config.dynamics.steps = options.steps;
   const bool continuing = !options.continue_dir.empty();
   if (continuing && !options.out.empty() && fs::path(options.out) != fs::path(options.continue_dir))
     throw InputError("--continue", 0, "--out " + options.out + " and --continue " + options.continue_dir +
@@ -123,9 +126,9 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   State& state = m->input.state;
   Run run(*m);
 
-  const long steps = config.integrator.steps;
+  const long steps = config.dynamics.steps;
   const fs::path checkpoint_file = dir / "state.cpt";
-  const RunIdentity identity = run_identity(system, config, summary_every(config));
+  const RunIdentity identity = run_identity(system, config, run_schema(), summary_every(config));
   Checkpoint checkpoint;
   if (continuing) {
     if (fs::exists(dir / "summary.json"))
@@ -148,7 +151,7 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
 
   const int threads = omp_get_max_threads();
   std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d thread%s (pinned: %s), SIMD %s, output in %s\n",
-              config.file.string().c_str(), system.n_atoms(), run.integrator->name().c_str(), config.integrator.dt,
+              config.file.string().c_str(), system.n_atoms(), run.integrator->name().c_str(), config.dynamics.dt,
               steps, threads, threads == 1 ? "" : "s", options.pinning.c_str(), simd_description().c_str(),
               dir.string().c_str());
   if (continuing)
@@ -257,18 +260,19 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
   if (has_velocities && !m.input.velocities_generated)
     std::printf(", velocities by up to %.3g nm/ps", moved.velocity_change);
   std::printf("\n");
+  const ForceFieldConfig& ff = forcefield_config(c);
   std::printf("forcefield  cutoff %g nm, vdw %s (switch %g nm), coulomb %s (epsilon_rf %g), %s, %s precision; terms:",
-              c.forcefield.cutoff, c.forcefield.vdw_modifier.c_str(), c.forcefield.vdw_switch, c.forcefield.coulomb.c_str(),
-              c.forcefield.epsilon_rf, describe_pair_list(*m.force_field).c_str(), c.forcefield.precision.c_str());
+              ff.cutoff, ff.vdw_modifier.c_str(), ff.vdw_switch, ff.coulomb.c_str(), ff.epsilon_rf,
+              describe_pair_list(*m.force_field).c_str(), ff.precision.c_str());
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
-  std::printf("\nsmoothness  %s", describe_smoothness(c.forcefield).c_str());
-  if (c.forcefield.coulomb == "pme") std::printf("\npme         %s", describe_pme(c.forcefield, s.box).c_str());
-  std::unique_ptr<Integrator> integrator = make_integrator(c.integrator);
-  std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.integrator.dt,
-              c.integrator.steps, c.integrator.steps * c.integrator.dt);
+  std::printf("\nsmoothness  %s", describe_smoothness(ff).c_str());
+  if (ff.coulomb == "pme") std::printf("\npme         %s", describe_pme(ff, s.box).c_str());
+  std::unique_ptr<Integrator> integrator = make_integrator(integrator_config(c));
+  std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.dynamics.dt,
+              c.dynamics.steps, c.dynamics.steps * c.dynamics.dt);
   std::printf("output      %s (trajectory every %ld, energies every %ld steps)\n", c.output.dir.string().c_str(),
               c.output.trajectory_every, c.output.energy_every);
-  const std::vector<std::string> settings = non_default_settings(c);
+  const std::vector<std::string> settings = non_default_settings(c, run_schema());
   for (std::size_t k = 0; k < settings.size(); ++k)
     std::printf("%s%s\n", k == 0 ? "settings    " : "            ", settings[k].c_str());
   std::printf("%severy other key at its default (vimd keys lists them)\n", settings.empty() ? "settings    " : "            ");
@@ -281,12 +285,13 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
 
 int keys_command(bool markdown) {
   if (markdown) {
-    std::fputs(config_reference_markdown().c_str(), stdout);
+    std::fputs(config_reference_markdown(run_schema()).c_str(), stdout);
     return 0;
   }
-  for (const std::string& section : config_sections()) {
+  const ConfigSchema& schema = run_schema();
+  for (const std::string& section : schema.sections()) {
     std::printf("[%s]\n", section.c_str());
-    for (const ConfigKey& key : config_keys()) {
+    for (const ConfigKey& key : schema.keys) {
       if (key.section != section) continue;
       std::string type = key.type;
       for (std::size_t c = 0; c < key.choices.size(); ++c) type += (c ? " | " : ": ") + key.choices[c];

@@ -7,7 +7,6 @@
 #include <iterator>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <toml++/toml.h>
 
 #include "engine/config_schema.hpp"
@@ -19,20 +18,11 @@ namespace fs = std::filesystem;
 namespace {
 
 // The accepted keys per table, from the schema; [integrator.tableau] has its own.
-const std::map<std::string, std::vector<std::string>>& schema() {
-  static const std::map<std::string, std::vector<std::string>> tables = [] {
-    std::map<std::string, std::vector<std::string>> t;
-    for (const ConfigKey& key : config_keys()) t[key.section].push_back(key.name);
-    t["integrator.tableau"] = {"a", "b", "c", "order"};
-    return t;
-  }();
+std::map<std::string, std::vector<std::string>> tables_of(const ConfigSchema& schema) {
+  std::map<std::string, std::vector<std::string>> tables;
+  for (const ConfigKey& key : schema.keys) tables[key.section].push_back(key.name);
+  tables["integrator.tableau"] = {"a", "b", "c", "order"};
   return tables;
-}
-
-std::string format_number(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
 }
 
 std::string join(const std::vector<std::string>& words) {
@@ -55,7 +45,8 @@ std::string type_name(const toml::node& node) {
 
 class ConfigReader {
  public:
-  explicit ConfigReader(const fs::path& file) : file_(file), dir_(file.parent_path()) {}
+  ConfigReader(const fs::path& file, const ConfigSchema& schema)
+      : file_(file), dir_(file.parent_path()), schema_(schema), tables_(tables_of(schema)) {}
 
   RunConfig read(const ConfigOverrides& overrides) {
     std::ifstream in(file_, std::ios::binary);
@@ -74,11 +65,11 @@ class ConfigReader {
     config.file = file_;
     for (auto&& [key, node] : root) {
       const std::string name(key.str());
-      if (!schema().count(name) || name.find('.') != std::string::npos) unknown_top_level(name, key, node);
+      if (!tables_.count(name) || name.find('.') != std::string::npos) unknown_top_level(name, key, node);
       if (!node.is_table()) fail(key, "[" + name + "] must be a table, found " + type_name(node));
     }
     if (!root["system"].as_table()) throw InputError(file_.string(), 0, "missing [system] table with structure and topology");
-    for (const std::string& section : config_sections())
+    for (const std::string& section : schema_.sections())
       if (const auto* t = root[section].as_table()) read_section(*t, section, config);
     check_rules(root, config);
     config.output.dir = resolve(config.output.dir);
@@ -184,7 +175,7 @@ class ConfigReader {
   void apply_override(toml::table& root, const std::string& key, const ConfigValue& value) const {
     std::string table_name;
     std::vector<std::string> all;
-    for (const auto& [table, keys] : schema()) {
+    for (const auto& [table, keys] : tables_) {
       if (table.find('.') != std::string::npos) continue;
       all.insert(all.end(), keys.begin(), keys.end());
       if (std::find(keys.begin(), keys.end(), key) != keys.end()) table_name = table;
@@ -223,11 +214,11 @@ class ConfigReader {
   }
 
   [[noreturn]] void unknown_top_level(const std::string& name, const toml::key& key, const toml::node& node) const {
-    for (const auto& [table, keys] : schema())
+    for (const auto& [table, keys] : tables_)
       if (std::find(keys.begin(), keys.end(), name) != keys.end())
         fail(key, "'" + name + "' must be inside [" + table + "]");
     std::vector<std::string> tables;
-    for (const auto& [table, keys] : schema())
+    for (const auto& [table, keys] : tables_)
       if (table.find('.') == std::string::npos) tables.push_back(table);
     const auto suggestion = nearest_word(name, tables);
     fail(key, std::string(node.is_table() ? "unknown table [" : "unknown key '") + name +
@@ -237,12 +228,12 @@ class ConfigReader {
 
   // Every key of `table` must be in the schema of `table_name`.
   void check_keys(const toml::table& table, const std::string& table_name) const {
-    const auto& allowed = schema().at(table_name);
+    const auto& allowed = tables_.at(table_name);
     for (auto&& [key, node] : table) {
       const std::string name(key.str());
       if (std::find(allowed.begin(), allowed.end(), name) != allowed.end()) continue;
       std::string hint;
-      for (const auto& [other, keys] : schema())
+      for (const auto& [other, keys] : tables_)
         if (other != table_name && std::find(keys.begin(), keys.end(), name) != keys.end())
           hint = " ('" + name + "' belongs in [" + other + "])";
       const auto suggestion = nearest_word(name, allowed);
@@ -319,84 +310,37 @@ class ConfigReader {
     const toml::node& node_;
   };
 
+  // The keys read, for the rules between them.
+  class ReadKeys final : public GivenKeys {
+   public:
+    const KeyInput* find(const std::string& section, const std::string& name) const override {
+      const auto it = inputs_.find({section, name});
+      return it == inputs_.end() ? nullptr : &it->second;
+    }
+    const KeyInput& add(const ConfigReader& reader, const ConfigKey& key, const toml::node& node) {
+      return inputs_.try_emplace({key.section, key.name}, reader, key, node).first->second;
+    }
+
+   private:
+    std::map<std::pair<std::string, std::string>, NodeInput> inputs_;
+  };
+
   // Every key the table has, read as the schema says.
-  void read_section(const toml::table& t, const std::string& section, RunConfig& config) const {
+  void read_section(const toml::table& t, const std::string& section, RunConfig& config) {
     check_keys(t, section);
-    for (const ConfigKey& key : config_keys())
+    for (const ConfigKey& key : schema_.keys)
       if (key.section == section)
-        if (const auto* node = t.get(key.name)) key.read(NodeInput(*this, key, *node), config);
+        if (const auto* node = t.get(key.name)) key.read(read_.add(*this, key, *node), config);
   }
 
-  // The rules between keys, each reported at the line of the key that breaks it.
+  // The rules between keys, each reported at the line of the key that breaks it: [system]'s, then
+  // the schema's.
   void check_rules(const toml::table& root, const RunConfig& config) const {
-    const auto node = [&](const char* section, const char* name) -> const toml::node* {
-      const auto* table = root[section].as_table();
-      return table ? table->get(name) : nullptr;
-    };
     const toml::table& system = *root["system"].as_table();
     const int system_line = static_cast<int>(system.source().begin.line);
-    if (!node("system", "structure")) throw InputError(file_.string(), system_line, "[system] needs structure = \"file.gro\"");
-    if (!node("system", "topology")) throw InputError(file_.string(), system_line, "[system] needs topology = \"file.top\"");
-
-    const ForceFieldConfig& ff = config.forcefield;
-    if (ff.vdw_modifier == "force-switch" || ff.vdw_modifier == "potential-switch") {
-      const toml::node* where = node("forcefield", "vdw_switch") ? node("forcefield", "vdw_switch")
-                                                                  : node("forcefield", "vdw_modifier");
-      require(ff.vdw_switch < ff.cutoff, *where,
-              "vdw_switch (" + format_number(ff.vdw_switch) + " nm) must be smaller than cutoff (" +
-                  format_number(ff.cutoff) + " nm) for " + ff.vdw_modifier);
-    }
-    if (ff.coulomb_modifier == "potential-switch") {
-      const toml::node& modifier = *node("forcefield", "coulomb_modifier");
-      require(ff.coulomb != "none", modifier,
-              "coulomb_modifier = \"potential-switch\" needs coulomb = \"reaction-field\", \"cutoff\" or \"pme\"");
-      const toml::node* start = node("forcefield", "coulomb_switch");
-      require(start != nullptr, modifier,
-              "coulomb_modifier = \"potential-switch\" needs coulomb_switch (nm, where the switch starts)");
-      require(ff.coulomb_switch < ff.cutoff, *start,
-              "coulomb_switch (" + format_number(ff.coulomb_switch) + " nm) must be smaller than cutoff (" +
-                  format_number(ff.cutoff) + " nm)");
-    }
-    if (const toml::node* search_skin = node("forcefield", "neighbor_search_skin"))
-      require(*ff.neighbor_search_skin >= ff.neighbor_skin, *search_skin,
-              "neighbor_search_skin (" + format_number(*ff.neighbor_search_skin) +
-                  " nm) must not be smaller than neighbor_skin (" + format_number(ff.neighbor_skin) + " nm)");
-
-    const IntegratorConfig& in = config.integrator;
-    if (const toml::node* thermostat = node("integrator", "thermostat"))
-      require(in.thermostat == "none" || in.temperature, *thermostat,
-              "thermostat = \"" + in.thermostat + "\" needs temperature = <K> in [integrator] (the reference)");
-    const toml::node* method = node("integrator", "method");
-    if (const toml::node* tableau = node("integrator", "tableau"))
-      require(in.method == "user", method ? *method : *tableau,
-              "[integrator.tableau] is given, so method must be \"user\" (it is \"" + in.method + "\")");
-    else if (in.method == "user")
-      fail(*method, "method = \"user\" needs an [integrator.tableau] table with a, b and order");
-    if (const toml::node* composition = node("integrator", "composition")) {
-      if (in.type == "shake")
-        require(in.composition == "none", *composition,
-                "composition is for type = \"rattle\": SHAKE's leap-frog state holds half-step velocities, which "
-                "sub-steps of other lengths cannot share; type = \"rattle\" takes the same positions with on-step "
-                "velocities");
-      require(in.composition == "none" || in.type == "rattle", *composition,
-              "composition is for type = \"rattle\" (type is \"" + in.type + "\")");
-    }
-    for (const char* user_key : {"composition_weights", "composition_order"})
-      if (const toml::node* given = node("integrator", user_key))
-        require(in.composition == "user", *given,
-                std::string(user_key) + " is given, so composition must be \"user\" (it is \"" + in.composition +
-                    "\")");
-    if (in.composition == "user") {
-      const toml::node& composition = *node("integrator", "composition");
-      require(node("integrator", "composition_weights") != nullptr, composition,
-              "composition = \"user\" needs composition_weights = [...] (the sub-steps as fractions of dt)");
-      require(node("integrator", "composition_order") != nullptr, composition,
-              "composition = \"user\" needs composition_order (the order the weights claim, checked)");
-    }
-    if (ff.precision == "mixed" && (in.type == "vi" || in.type == "rk"))
-      fail(*node("forcefield", "precision"),
-           "precision = \"mixed\" is for verlet, shake, rattle and minimize: type = \"" + in.type +
-               "\" solves its step equations to a tolerance that single-precision forces cannot meet");
+    if (!system.get("structure")) throw InputError(file_.string(), system_line, "[system] needs structure = \"file.gro\"");
+    if (!system.get("topology")) throw InputError(file_.string(), system_line, "[system] needs topology = \"file.top\"");
+    for (const ConfigRule& rule : schema_.rules) rule(read_, config);
   }
 
   TableauConfig read_tableau(const toml::table& t) const {
@@ -439,14 +383,17 @@ class ConfigReader {
   }
 
   fs::path file_, dir_;
+  const ConfigSchema& schema_;
+  const std::map<std::string, std::vector<std::string>> tables_;
+  ReadKeys read_;
 };
 
 }  // namespace
 
-RunConfig read_config(const fs::path& file, const ConfigOverrides& overrides) {
+RunConfig read_config(const fs::path& file, const ConfigSchema& schema, const ConfigOverrides& overrides) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), 0, "cannot open config file");
-  return ConfigReader(file).read(overrides);
+  return ConfigReader(file, schema).read(overrides);
 }
 
 }  // namespace vimd

@@ -59,18 +59,6 @@ std::string describe_atom(const System& s, int i) {
          s.atom_names[i] + ")";
 }
 
-// Every pair inside the cut-off must have one image only: the box must be at least twice the
-// cut-off. (Whether the pair lists' buffers fit as well is the pair term's to say.)
-void check_box(const RunConfig& c, const Box& box, int box_line) {
-  const auto& ff = c.forcefield;
-  for (int k = 0; k < 3; ++k)
-    if (box.length[k] > 0 && box.length[k] < 2 * ff.cutoff)
-      throw InputError(c.structure.string(), box_line,
-                       "box length " + format("%g", box.length[k]) + " nm in " + "xyz"[k] +
-                           " is shorter than twice the cutoff = 2 x " + format("%g", ff.cutoff) + " nm set in " +
-                           c.file.string() + ": use a larger box or a smaller cutoff");
-}
-
 // Overlapping atoms make the first force evaluation meaningless (or infinite).
 void check_overlaps(const System& s, const Coords& x, const Box& box, const std::filesystem::path& gro) {
   // Virtual sites sit close to their atoms by construction: only the other atoms count.
@@ -91,21 +79,6 @@ void check_overlaps(const System& s, const Coords& x, const Box& box, const std:
                        (pairs > 1 ? " (" + std::to_string(pairs) + " such pairs in all)" : std::string()));
 }
 
-std::optional<std::string> net_charge_warning(const System& s, const RunConfig& c) {
-  const double q = s.charge.sum();
-  // grompp's threshold for its own note on a net charge.
-  if (c.forcefield.coulomb == "none" || std::abs(q) < 1e-4) return std::nullopt;
-  if (c.forcefield.coulomb == "pme")
-    return c.topology.string() + ": the system has a net charge of " + format("%.6g", q) +
-           " e: Ewald with a net charge adds a uniform neutralising background (its energy is in coulomb_recip, "
-           "as GROMACS's), which can cause artifacts such as ions drifting into regions of low dielectric; "
-           "add counter-ions unless this is intended";
-  return c.topology.string() + ": the system has a net charge of " + format("%.6g", q) + " e (coulomb = \"" +
-         c.forcefield.coulomb + "\"): reaction-field assumes a neutral system (its medium beyond the cut-off is a " +
-         "neutral dielectric), so with a net charge the energy depends on the cut-off and epsilon_rf and is not " +
-         "comparable with other setups; add counter-ions unless this is intended";
-}
-
 // As grompp: a harmonic bond that is not also constrained oscillates with period 2π√(μ/k); fewer
 // than ten steps per period integrate it badly or not at all.
 std::optional<std::string> time_step_warning(const System& s, const RunConfig& c) {
@@ -119,14 +92,14 @@ std::optional<std::string> time_step_warning(const System& s, const RunConfig& c
     if (b.k <= 0 || constrained.count(std::minmax(b.i, b.j)) || s.mass[b.i] <= 0 || s.mass[b.j] <= 0) continue;
     const double reduced_mass = s.mass[b.i] * s.mass[b.j] / (s.mass[b.i] + s.mass[b.j]);
     const double period = 2 * std::numbers::pi * std::sqrt(reduced_mass / b.k);  // ps
-    if (period >= 10 * c.integrator.dt) continue;
+    if (period >= 10 * c.dynamics.dt) continue;
     ++too_fast;
     if (period < shortest) shortest = period, fastest = &b;
   }
   if (!fastest) return std::nullopt;
   return c.topology.string() + ": the bond between atoms " + describe_atom(s, fastest->i) + " and " +
          describe_atom(s, fastest->j) + " oscillates with a period of " + format("%.3g", shortest) +
-         " ps, less than 10 times dt = " + format("%g", c.integrator.dt) + " ps set in " + c.file.string() +
+         " ps, less than 10 times dt = " + format("%g", c.dynamics.dt) + " ps set in " + c.file.string() +
          " (" + std::to_string(too_fast) + " unconstrained bond(s) affected): the integration will be inaccurate " +
          "or unstable; constrain these bonds ([system] constraints = \"h-bonds\" or \"all-bonds\") or use dt <= " +
          format("%.2g", shortest / 10) + " ps";
@@ -198,28 +171,28 @@ std::optional<Overlap> find_overlap(const Coords& x, const Box& box, double min_
   return found;
 }
 
-RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOverrides& overrides) {
+RunInput read_run_input(const std::filesystem::path& config_file, const ConfigSchema& schema,
+                        const ConfigOverrides& overrides, const InputCheck& check) {
   RunInput in;
-  in.config = read_config(config_file, overrides);
+  in.config = read_config(config_file, schema, overrides);
   const RunConfig& c = in.config;
   in.system = read_topology(c.topology, bond_constraints(c));
   check_hydrogens(in.system, c);
   GroFrame frame = read_gro(c.structure);
 
   in.warnings = apply_structure(in.system, frame, c.structure, c.topology);
-  check_box(c, frame.box, static_cast<int>(frame.x.cols()) + 3);
+  if (check)
+    for (auto& warning : check(c, in.system, frame.box, static_cast<int>(frame.x.cols()) + 3))
+      in.warnings.push_back(std::move(warning));
   check_overlaps(in.system, frame.x, frame.box, c.structure);
-  for (const auto& warning : {net_charge_warning(in.system, c), time_step_warning(in.system, c)})
-    if (warning) in.warnings.push_back(*warning);
+  if (auto warning = time_step_warning(in.system, c)) in.warnings.push_back(std::move(*warning));
 
   in.state.q = frame.x;
   if (frame.v) {
     in.state.v = *frame.v;
-  } else if (c.integrator.temperature) {
-    in.state.v = maxwell_boltzmann_velocities(in.system, *c.integrator.temperature, c.integrator.seed);
+  } else if (c.dynamics.temperature) {
+    in.state.v = maxwell_boltzmann_velocities(in.system, *c.dynamics.temperature, c.dynamics.seed);
     in.velocities_generated = true;
-  } else if (c.integrator.type == "minimize") {
-    in.state.v = Coords::Zero(3, in.system.n_atoms());  // a minimiser has no use for velocities
   }
   return in;
 }

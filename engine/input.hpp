@@ -1,11 +1,13 @@
 #pragma once
 // Reading a run's inputs: the TOML config, then its .top and .gro, checked against each other.
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "engine/config.hpp"
+#include "engine/config_schema.hpp"
 #include "engine/state.hpp"
 #include "engine/system.hpp"
 
@@ -23,11 +25,15 @@ struct RunInput {
 // InputError unless the input has velocities (read or generated): only a run needs them.
 void require_velocities(const RunInput& input);
 
-// Reads and cross-checks the inputs. Refused (InputError): a box shorter than twice the cut-off,
-// atoms closer than 0.05 nm. Warned: a net charge with reaction-field or plain cut-off
-// Coulomb, dt above a tenth of the period of the fastest unconstrained bond, atom names that differ
-// between structure and topology.
-RunInput read_run_input(const std::filesystem::path& config_file, const ConfigOverrides& overrides = {});
+// A component's settings checked against the system and the structure's box (read at box_line):
+// InputError when they cannot work together, else warnings (e.g. the force field's cut-off and net charge).
+using InputCheck = std::function<std::vector<std::string>(const RunConfig&, const System&, const Box&, int box_line)>;
+
+// Reads and cross-checks the inputs. Refused (InputError): atoms closer than 0.05 nm, what `check`
+// refuses. Warned: what `check` warns of, dt above a tenth of the period of the fastest
+// unconstrained bond, atom names that differ between structure and topology.
+RunInput read_run_input(const std::filesystem::path& config_file, const ConfigSchema& schema,
+                        const ConfigOverrides& overrides = {}, const InputCheck& check = {});
 
 // The first pair of atoms (in atom order) nearer than min_distance (minimum image in the periodic
 // directions), with the number of such pairs; found through cells, in O(N).

@@ -11,6 +11,7 @@
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh_kernels.hpp"
 #include "forcefields/fft_grid.hpp"
+#include "forcefields/settings.hpp"
 
 namespace vimd {
 
@@ -58,8 +59,9 @@ struct EwaldMeshSetup {
       : n(p.grid), order(p.order), row(even_row(p.grid[2] + spline_stride(p.order) - 1)), charge(system.charge.data(), system.charge.data() + system.n_atoms()) {
     if (!system.box.periodic())
       throw std::invalid_argument("the Ewald mesh (PME) needs a box periodic in x, y and z");
-    if (p.order < 3 || p.order > kMaxSplineOrder)
-      throw std::invalid_argument("PME order " + std::to_string(p.order) + " is outside 3.." + std::to_string(kMaxSplineOrder));
+    if (p.order < kMinPmeOrder || p.order > kMaxPmeOrder)
+      throw std::invalid_argument("PME order " + std::to_string(p.order) + " is outside " +
+                                  std::to_string(kMinPmeOrder) + ".." + std::to_string(kMaxPmeOrder));
     for (int d = 0; d < 3; ++d)
       if (n[d] < p.order)
         throw std::invalid_argument("PME grid of " + std::to_string(n[d]) + " points is smaller than the order " +

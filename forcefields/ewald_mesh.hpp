@@ -29,7 +29,7 @@ namespace vimd {
 
 struct EwaldMeshParameters {
   std::array<int, 3> grid;  // nx, ny, nz grid points
-  int order;                // B-spline interpolation order p (GROMACS pme-order), 3..12
+  int order;                // B-spline interpolation order p (GROMACS pme-order), kMinPmeOrder..kMaxPmeOrder
   double beta;              // Ewald splitting coefficient, nm⁻¹
   double prefactor;         // f/ε_r, kJ/mol nm e⁻² (f = kCoulomb)
 };

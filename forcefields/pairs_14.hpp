@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "engine/box.hpp"
-#include "engine/config.hpp"
+#include "forcefields/settings.hpp"
 #include "engine/system.hpp"
 #include "forcefields/bonded_term.hpp"
 

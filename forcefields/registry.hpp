@@ -2,7 +2,7 @@
 // The force-field registry: builds the terms a system needs from its topology and the run config.
 #include <memory>
 
-#include "engine/config.hpp"
+#include "forcefields/settings.hpp"
 #include "engine/force_field.hpp"
 #include "engine/system.hpp"
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 
 namespace vimd {
 

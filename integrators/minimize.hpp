@@ -7,7 +7,7 @@
 // space of the constraint manifold (f − Gᵀ(GGᵀ)⁻¹G f): the steepest-descent direction on the
 // manifold, zero at a constrained minimum, so its largest per-atom norm is what `emtol` bounds.
 // (GROMACS projects M⁻¹-weighted instead; that direction need not descend.)
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 
 namespace vimd {

@@ -7,7 +7,7 @@
 #include <memory>
 #include <string>
 
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 #include "integrators/tableau.hpp"
 

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 
 namespace vimd {

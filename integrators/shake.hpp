@@ -6,7 +6,7 @@
 // starting velocities are read as v_{−1/2}. The reported kinetic energy at step n is the average
 // of the half-step kinetic energies at n−½ and n+½, so it needs v_{n+1/2}: the integrator
 // computes that half step once and keeps it for the next step().
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 
 namespace vimd {

@@ -8,7 +8,7 @@
 
 #include <Eigen/Dense>
 
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 
 namespace vimd {
 

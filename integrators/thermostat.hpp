@@ -13,7 +13,7 @@
 #include <string>
 
 #include "engine/carried.hpp"
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 #include "engine/types.hpp"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 #include "integrators/tableau.hpp"
 

@@ -2,7 +2,7 @@
 // Velocity Verlet for unconstrained systems, plus the pieces the constrained integrators
 // (SHAKE, RATTLE) share with it: the half kick, the force update and the config checks.
 
-#include "engine/config.hpp"
+#include "integrators/settings.hpp"
 #include "engine/integrator.hpp"
 #include "integrators/thermostat.hpp"
 

@@ -35,6 +35,12 @@ add_test(NAME stop_continue
                  ${CMAKE_BINARY_DIR}/test-stop-continue)
 set_tests_properties(stop_continue PROPERTIES ENVIRONMENT "OMP_NUM_THREADS=2")
 
+# docs/run-file.md is what `vimd keys --markdown` prints (test_config checks the schema's text; this
+# checks the command prints that schema).
+add_test(NAME keys_markdown_is_docs
+         COMMAND bash -c "\"$0\" keys --markdown | diff - \"$1\"" $<TARGET_FILE:vimd>
+                 ${CMAKE_SOURCE_DIR}/docs/run-file.md)
+
 # The bad-input catalogue: one directory per case under tests/bad_inputs, each with
 # the command, exit status and message fragment it expects.
 add_test(NAME bad_inputs

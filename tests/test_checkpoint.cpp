@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "app/run_schema.hpp"
 #include "engine/checkpoint.hpp"
 #include "engine/errors.hpp"
 #include "engine/input.hpp"
@@ -42,30 +43,31 @@ struct Engine {
   std::unique_ptr<Simulation> simulation;
 
   Engine(const std::string& type, const fs::path& dir, long checkpoint_every) {
-    input = read_run_input(fs::path(VIMD_SOURCE_DIR) / "inputs" / "water216" / "run.toml");
-    input.config.integrator.type = type;
+    input = read_run_input(fs::path(VIMD_SOURCE_DIR) / "inputs" / "water216" / "run.toml", run_schema());
+    IntegratorSettings& settings = integrator_settings(input.config);
+    settings.type = type;
     if (type == "rattle_vrescale") {  // the thermostat's random stream and work are carried
-      input.config.integrator.type = "rattle";
-      input.config.integrator.thermostat = "v-rescale";
-      input.config.integrator.temperature = 300.0;
+      settings.type = "rattle";
+      settings.thermostat = "v-rescale";
+      input.config.dynamics.temperature = 300.0;
     }
     if (type == "rattle_yoshida4_vrescale") {  // composed steps, with the thermostat once per step
-      input.config.integrator.type = "rattle";
-      input.config.integrator.composition = "yoshida4";
-      input.config.integrator.thermostat = "v-rescale";
-      input.config.integrator.temperature = 300.0;
+      settings.type = "rattle";
+      settings.composition = "yoshida4";
+      settings.thermostat = "v-rescale";
+      input.config.dynamics.temperature = 300.0;
     }
     if (type.ends_with("_pme")) {  // the mesh keeps grids and its last potential between evaluations
-      input.config.integrator.type = type.substr(0, type.size() - 4);
-      input.config.forcefield.coulomb = "pme";
-      input.config.forcefield.pme_order = 6;
+      settings.type = type.substr(0, type.size() - 4);
+      forcefield_config(input.config).coulomb = "pme";
+      forcefield_config(input.config).pme_order = 6;
     }
-    field = make_force_field(input.system, input.config.forcefield);
+    field = make_force_field(input.system, forcefield_config(input.config));
     constraints = Constraints(input.system.constraints, input.system.n_atoms(), input.system.box);
     inverse_mass = input.system.mass.cwiseInverse();
-    integrator = make_integrator(input.config.integrator);
+    integrator = make_integrator(integrator_config(input.config));
     problem = std::make_unique<Problem>(Problem{input.system, *field, constraints, inverse_mass});
-    simulation = std::make_unique<Simulation>(*problem, *integrator, input.config.integrator.dt);
+    simulation = std::make_unique<Simulation>(*problem, *integrator, input.config.dynamics.dt);
     simulation->add_observer(std::make_unique<EnergyWriter>(dir, 1));
     simulation->add_observer(std::make_unique<TrajectoryWriter>(dir, 5));
     simulation->add_observer(std::make_unique<FinalStructureWriter>(dir));

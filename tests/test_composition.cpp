@@ -7,6 +7,7 @@
 #include <map>
 #include <string>
 
+#include "app/run_schema.hpp"
 #include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "integrators/composition.hpp"
@@ -99,7 +100,7 @@ TEST(Composition, ResolvesTheRunFilesChoice) {
 
 // The run file offers "none", the built-ins and "user".
 TEST(Composition, TheRunFileOffersExactlyTheBuiltins) {
-  const ConfigKey* key = find_config_key("integrator", "composition");
+  const ConfigKey* key = run_schema().find("integrator", "composition");
   ASSERT_NE(key, nullptr);
   std::vector<std::string> expected = {"none"};
   for (const std::string& name : composition_names()) expected.push_back(name);

@@ -4,11 +4,14 @@
 #include <map>
 #include <set>
 
+#include "app/run_schema.hpp"
 #include "engine/checkpoint.hpp"
 #include "engine/config.hpp"
 #include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
+#include "forcefields/settings.hpp"
 #include "integrators/registry.hpp"
+#include "integrators/settings.hpp"
 #include "marked_line.hpp"
 
 namespace fs = std::filesystem;
@@ -20,7 +23,7 @@ const fs::path kData = fs::path(VIMD_SOURCE_DIR) / "tests/data";
 }  // namespace
 
 TEST(Config, ReadsEveryKey) {
-  const RunConfig c = read_config(kConfig / "full.toml");
+  const RunConfig c = read_config(kConfig / "full.toml", run_schema());
   EXPECT_EQ(c.file, kConfig / "full.toml");
   EXPECT_EQ(c.constraints, "h-bonds");
   // Relative paths are relative to the config file's directory.
@@ -31,18 +34,18 @@ TEST(Config, ReadsEveryKey) {
   EXPECT_EQ(c.output.energy_every, 5);
   EXPECT_EQ(c.output.checkpoint_every, 2000);
 
-  EXPECT_DOUBLE_EQ(c.forcefield.cutoff, 1.0);
-  EXPECT_EQ(c.forcefield.vdw_modifier, "potential-switch");
-  EXPECT_DOUBLE_EQ(c.forcefield.vdw_switch, 0.8);
-  EXPECT_EQ(c.forcefield.coulomb, "reaction-field");
-  EXPECT_DOUBLE_EQ(c.forcefield.epsilon_r, 1.0);  // an integer where a number is expected is fine
-  EXPECT_DOUBLE_EQ(c.forcefield.epsilon_rf, 78.0);
-  EXPECT_DOUBLE_EQ(c.forcefield.neighbor_skin, 0.12);
-  EXPECT_EQ(c.forcefield.coulomb_modifier, "potential-switch");
-  EXPECT_DOUBLE_EQ(c.forcefield.coulomb_switch, 0.75);
-  EXPECT_EQ(c.forcefield.switch_smoothness, 4);
+  EXPECT_DOUBLE_EQ(forcefield_config(c).cutoff, 1.0);
+  EXPECT_EQ(forcefield_config(c).vdw_modifier, "potential-switch");
+  EXPECT_DOUBLE_EQ(forcefield_config(c).vdw_switch, 0.8);
+  EXPECT_EQ(forcefield_config(c).coulomb, "reaction-field");
+  EXPECT_DOUBLE_EQ(forcefield_config(c).epsilon_r, 1.0);  // an integer where a number is expected is fine
+  EXPECT_DOUBLE_EQ(forcefield_config(c).epsilon_rf, 78.0);
+  EXPECT_DOUBLE_EQ(forcefield_config(c).neighbor_skin, 0.12);
+  EXPECT_EQ(forcefield_config(c).coulomb_modifier, "potential-switch");
+  EXPECT_DOUBLE_EQ(forcefield_config(c).coulomb_switch, 0.75);
+  EXPECT_EQ(forcefield_config(c).switch_smoothness, 4);
 
-  const IntegratorConfig& in = c.integrator;
+  const IntegratorConfig in = integrator_config(c);
   EXPECT_EQ(in.type, "vi");
   EXPECT_DOUBLE_EQ(in.dt, 0.001);
   EXPECT_EQ(in.steps, 500);
@@ -67,25 +70,25 @@ TEST(Config, ReadsEveryKey) {
 }
 
 TEST(Config, DefaultsFromTheContract) {
-  const RunConfig c = read_config(kConfig / "minimal.toml");
+  const RunConfig c = read_config(kConfig / "minimal.toml", run_schema());
   const ForceFieldConfig ff;
   const IntegratorConfig in;
   const OutputConfig out;
-  EXPECT_EQ(c.forcefield.cutoff, ff.cutoff);
-  EXPECT_EQ(c.forcefield.vdw_modifier, ff.vdw_modifier);
-  EXPECT_EQ(c.forcefield.coulomb, ff.coulomb);
-  EXPECT_EQ(c.forcefield.epsilon_rf, ff.epsilon_rf);
-  EXPECT_EQ(c.forcefield.coulomb_modifier, "potential-shift");  // GROMACS's default
-  EXPECT_EQ(c.forcefield.switch_smoothness, 2);  // GROMACS's potential-switch
-  EXPECT_EQ(c.forcefield.neighbor_skin, ff.neighbor_skin);
-  EXPECT_EQ(c.integrator.type, in.type);
-  EXPECT_EQ(c.integrator.dt, in.dt);
-  EXPECT_EQ(c.integrator.steps, in.steps);
-  EXPECT_EQ(c.integrator.constraint_tolerance, in.constraint_tolerance);
-  EXPECT_FALSE(c.integrator.temperature.has_value());
-  EXPECT_FALSE(c.integrator.tableau.has_value());
-  EXPECT_EQ(c.integrator.method, in.method);
-  EXPECT_EQ(c.integrator.solver_precision, "mixed");
+  EXPECT_EQ(forcefield_config(c).cutoff, ff.cutoff);
+  EXPECT_EQ(forcefield_config(c).vdw_modifier, ff.vdw_modifier);
+  EXPECT_EQ(forcefield_config(c).coulomb, ff.coulomb);
+  EXPECT_EQ(forcefield_config(c).epsilon_rf, ff.epsilon_rf);
+  EXPECT_EQ(forcefield_config(c).coulomb_modifier, "potential-shift");  // GROMACS's default
+  EXPECT_EQ(forcefield_config(c).switch_smoothness, 2);  // GROMACS's potential-switch
+  EXPECT_EQ(forcefield_config(c).neighbor_skin, ff.neighbor_skin);
+  EXPECT_EQ(integrator_settings(c).type, in.type);
+  EXPECT_EQ(c.dynamics.dt, in.dt);
+  EXPECT_EQ(c.dynamics.steps, in.steps);
+  EXPECT_EQ(c.dynamics.constraint_tolerance, in.constraint_tolerance);
+  EXPECT_FALSE(c.dynamics.temperature.has_value());
+  EXPECT_FALSE(integrator_settings(c).tableau.has_value());
+  EXPECT_EQ(integrator_settings(c).method, in.method);
+  EXPECT_EQ(integrator_settings(c).solver_precision, "mixed");
   EXPECT_EQ(c.output.trajectory_every, out.trajectory_every);
   EXPECT_EQ(c.output.energy_every, out.energy_every);
   EXPECT_EQ(c.output.checkpoint_every, 0);  // 0: by wall time
@@ -93,10 +96,10 @@ TEST(Config, DefaultsFromTheContract) {
 }
 
 TEST(Config, SolverToleranceTakesANumberOrAuto) {
-  const RunConfig c = read_config(kConfig / "auto_tolerance.toml");
-  EXPECT_TRUE(c.integrator.solver_tolerance_auto);
-  EXPECT_FALSE(c.integrator.solver_tolerance.has_value());
-  EXPECT_FALSE(read_config(kConfig / "minimal.toml").integrator.solver_tolerance_auto);
+  const RunConfig c = read_config(kConfig / "auto_tolerance.toml", run_schema());
+  EXPECT_TRUE(integrator_settings(c).solver_tolerance_auto);
+  EXPECT_FALSE(integrator_settings(c).solver_tolerance.has_value());
+  EXPECT_FALSE(integrator_settings(read_config(kConfig / "minimal.toml", run_schema())).solver_tolerance_auto);
 }
 
 TEST(Config, MalformedConfigsNameFileAndLine) {
@@ -152,7 +155,7 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
     const fs::path file = kConfig / "bad" / c.file;
     const int line = marked_line(file, "# ERROR");
     try {
-      read_config(file);
+      read_config(file, run_schema());
       ADD_FAILURE() << "no error";
     } catch (const InputError& e) {
       const std::string what = e.what();
@@ -165,15 +168,15 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
 
 // Non-ASCII text is refused only where the TOML parser cannot take it (see config.cpp).
 TEST(Config, NonAsciiTextInCommentsAndStringValuesIsRead) {
-  const RunConfig c = read_config(kConfig / "non_ascii.toml");
+  const RunConfig c = read_config(kConfig / "non_ascii.toml", run_schema());
   EXPECT_EQ(c.output.dir, kConfig / "r\xc3\xa9sultats/\xe6\xb0\xb4");
-  EXPECT_EQ(c.integrator.bias[0], 0.25);
-  EXPECT_EQ(c.integrator.bias[1], 0.75);
+  EXPECT_EQ(integrator_settings(c).bias[0], 0.25);
+  EXPECT_EQ(integrator_settings(c).bias[1], 0.75);
 }
 
 TEST(Config, MissingFileIsAnInputError) {
   try {
-    read_config(kConfig / "no_such.toml");
+    read_config(kConfig / "no_such.toml", run_schema());
     ADD_FAILURE() << "no error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("no_such.toml"), std::string::npos);
@@ -256,9 +259,9 @@ TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
       {"checkpoint_every", 0L},
   };
   const System system;
-  const RunConfig base = read_config(kConfig / "full.toml");
-  const RunIdentity base_identity = run_identity(system, base, 5);
-  for (const ConfigKey& key : config_keys()) {
+  const RunConfig base = read_config(kConfig / "full.toml", run_schema());
+  const RunIdentity base_identity = run_identity(system, base, run_schema(), 5);
+  for (const ConfigKey& key : run_schema().keys) {
     SCOPED_TRACE("[" + key.section + "] " + key.name);
     const auto it = alternative.find(key.name);
     ASSERT_NE(it, alternative.end()) << "a new key: give it an alternative value here and decide (OnContinue) "
@@ -266,7 +269,7 @@ TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
     RunConfig changed = base;
     key.read(GivenValue(key, it->second), changed);
     ASSERT_NE(key.value(changed), key.value(base)) << "the alternative value is full.toml's own";
-    const RunIdentity identity = run_identity(system, changed, 5);
+    const RunIdentity identity = run_identity(system, changed, run_schema(), 5);
     // Which settings a continued run may change is a decision: changing it changes this list.
     const std::set<std::string> may_change = {"structure", "topology", "steps", "dir", "checkpoint_every"};
     EXPECT_EQ(key.on_continue == OnContinue::may_change, may_change.count(key.name) == 1);
@@ -286,21 +289,43 @@ TEST(ConfigSchema, EveryKeyIsPartOfTheIdentityOrAllowedToChange) {
 
 // Every key the schema lists is one the reader accepts, and a settings override reaches it.
 TEST(ConfigSchema, OverridesReachEveryNamedKey) {
-  const RunConfig c = read_config(kConfig / "full.toml", {{"switch_smoothness", 5L}, {"coulomb_switch", 0.6}});
-  EXPECT_EQ(c.forcefield.switch_smoothness, 5);
-  EXPECT_DOUBLE_EQ(c.forcefield.coulomb_switch, 0.6);
+  const RunConfig c = read_config(kConfig / "full.toml", run_schema(), {{"switch_smoothness", 5L}, {"coulomb_switch", 0.6}});
+  EXPECT_EQ(forcefield_config(c).switch_smoothness, 5);
+  EXPECT_DOUBLE_EQ(forcefield_config(c).coulomb_switch, 0.6);
 }
 
 // docs/run-file.md is the schema's reference as `vimd keys --markdown` prints it.
 TEST(ConfigSchema, ReferenceInDocsIsCurrent) {
   std::ifstream in(fs::path(VIMD_SOURCE_DIR) / "docs/run-file.md");
   const std::string docs{std::istreambuf_iterator<char>(in), {}};
-  EXPECT_EQ(docs, config_reference_markdown()) << "regenerate it: build/vimd keys --markdown > docs/run-file.md";
+  EXPECT_EQ(docs, config_reference_markdown(run_schema())) << "regenerate it: build/vimd keys --markdown > docs/run-file.md";
+}
+
+// The assembled schema is the engine's keys and every component's, each once, with every
+// component's rules: a component's key is readable, listed and part of the identity without the
+// engine naming it.
+TEST(ConfigSchema, AssemblesTheEngineAndEveryComponent) {
+  std::vector<ConfigKey> parts = system_keys();
+  for (auto more : {forcefield_keys(), std::vector<ConfigKey>{integrator_type_key()}, dynamics_keys(),
+                    integrator_keys(), output_keys()})
+    parts.insert(parts.end(), more.begin(), more.end());
+  const ConfigSchema& schema = run_schema();
+  ASSERT_EQ(schema.keys.size(), parts.size());
+  std::set<std::pair<std::string, std::string>> names;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    SCOPED_TRACE("[" + parts[k].section + "] " + parts[k].name);
+    EXPECT_EQ(schema.keys[k].section, parts[k].section);  // in the reference's order
+    EXPECT_EQ(schema.keys[k].name, parts[k].name);
+    EXPECT_EQ(schema.find(parts[k].section, parts[k].name), &schema.keys[k]);
+    EXPECT_TRUE(names.emplace(parts[k].section, parts[k].name).second) << "listed twice";
+  }
+  EXPECT_EQ(schema.sections(), (std::vector<std::string>{"system", "forcefield", "integrator", "output"}));
+  EXPECT_EQ(schema.rules.size(), forcefield_rules().size() + integrator_rules().size());
 }
 
 // The run file offers exactly the integrators the registry builds.
 TEST(ConfigSchema, IntegratorTypesAreTheRegistrys) {
-  const ConfigKey* type = find_config_key("integrator", "type");
+  const ConfigKey* type = run_schema().find("integrator", "type");
   ASSERT_NE(type, nullptr);
   EXPECT_EQ(type->choices, integrator_names());
 }

@@ -11,11 +11,14 @@
 #include <type_traits>
 #include <vector>
 
+#include "app/run_schema.hpp"
 #include "derivative_checks.hpp"
+#include "engine/errors.hpp"
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh.hpp"
 #include "forcefields/ewald_mesh_kernels.hpp"
 #include "forcefields/nonbonded/nonbonded_kernels.hpp"
+#include "forcefields/settings.hpp"
 #include "test_ff_systems.hpp"
 #include "simd/targets.hpp"
 
@@ -166,6 +169,32 @@ TEST(EwaldMesh, RefusesNonPeriodicBoxes) {
 
 // ---------------------------------------------------------------------------------------------
 // Derivatives, invariances
+
+// pme_order has one range: the run file takes exactly the orders the mesh is built for.
+TEST(EwaldMesh, RunFileAndMeshAcceptTheSamePmeOrders) {
+  const auto [system, q] = small_water();
+  const std::filesystem::path run_file = std::filesystem::path(VIMD_SOURCE_DIR) / "tests/data/config/full.toml";
+  for (int order = 1; order <= kMaxSplineOrder + 2; ++order) {
+    SCOPED_TRACE("pme_order " + std::to_string(order));
+    bool read = true, built = true;
+    try {
+      read_config(run_file, run_schema(), {{"pme_order", long{order}}});
+    } catch (const InputError& e) {
+      read = false;
+      EXPECT_NE(std::string(e.what()).find("pme_order must be between " + std::to_string(kMinPmeOrder) + " and " +
+                                           std::to_string(kMaxPmeOrder)),
+                std::string::npos)
+          << e.what();
+    }
+    try {
+      EwaldMeshTerm(system, parameters({24, 24, 24}, order), false);
+    } catch (const std::invalid_argument&) {
+      built = false;
+    }
+    EXPECT_EQ(read, order >= kMinPmeOrder && order <= kMaxPmeOrder);
+    EXPECT_EQ(built, read);
+  }
+}
 
 TEST(EwaldMesh, ForcesAndHessianVectorMatchFiniteDifferences) {
   const auto [system, q] = small_water();

@@ -6,9 +6,9 @@
 #include <random>
 #include <vector>
 
-#include "engine/config.hpp"
 #include "engine/force_field.hpp"
 #include "engine/system.hpp"
+#include "forcefields/settings.hpp"
 
 namespace vimd::testing {
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/config_schema.hpp"
+#include "forcefields/settings.hpp"
 #include "forcefields/nonbonded/nonbonded_pair_term.hpp"
 #include "forcefields/nonbonded/pair_forms.hpp"
 #include "test_forces_common.hpp"
@@ -42,7 +43,8 @@ void PrintTo(const PairCase& c, std::ostream* os) {
 // that a pair form added to the registry with its `coulomb` value is checked from then on), and
 // reaction field with eps_rf = 78, whose unswitched force jumps at rc.
 const std::vector<std::string>& forcefield_choices(const std::string& key) {
-  for (const ConfigKey& k : config_keys())
+  static const std::vector<ConfigKey> keys = forcefield_keys();
+  for (const ConfigKey& k : keys)
     if (k.section == "forcefield" && k.name == key) return k.choices;
   throw std::logic_error("no [forcefield] key " + key);
 }

@@ -6,6 +6,7 @@
 
 #include <random>
 
+#include "app/run_schema.hpp"
 #include "engine/input.hpp"
 #include "engine/simulation.hpp"
 #include "forcefields/registry.hpp"
@@ -108,15 +109,16 @@ TEST(SteepestDescent, StopsAtTheStepLimitAndWhenAlreadyConverged) {
 // The user system: gmx solvate -cs spc216 -box 2.6 2.6 2.6 with amber99sb-ildn TIP3P,
 // LJ +1.8e4 kJ/mol before minimisation.
 TEST(SteepestDescent, RelaxesTheSolvatedTip3pBox) {
-  RunInput in = read_run_input(VIMD_SOURCE_DIR "/inputs/tip3p_solvated/run_min.toml");
-  in.config.integrator.emtol = 1000;
-  auto field = make_force_field(in.system, in.config.forcefield);
+  RunInput in = read_run_input(VIMD_SOURCE_DIR "/inputs/tip3p_solvated/run_min.toml", run_schema());
+  in.state.v = Coords::Zero(3, in.system.n_atoms());  // the structure has none; a minimiser needs none
+  integrator_settings(in.config).emtol = 1000;
+  auto field = make_force_field(in.system, forcefield_config(in.config));
   Forces start;
   field->compute(in.state.q, start);
   const double start_lj = start.terms[0];
   Constraints constraints(in.system.constraints, in.system.n_atoms(), in.system.box);
   Problem problem{in.system, *field, constraints, in.system.mass.cwiseInverse()};
-  auto integrator = make_integrator(in.config.integrator);
+  auto integrator = make_integrator(integrator_config(in.config));
   Simulation simulation(problem, *integrator, 1.0);
   auto recorder = std::make_unique<Recorder>();
   Recorder& r = *recorder;

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "derivative_checks.hpp"
+#include "app/run_schema.hpp"
 #include "engine/config_schema.hpp"
 #include "engine/constraints.hpp"
 #include "engine/gromacs/topology.hpp"
@@ -329,8 +330,8 @@ TEST(VirtualSites, TheRunLoopPlacesTheSites) {
 TEST(VirtualSites, CheckpointIdentityCoversTheSites) {
   System s = read_topology(kTop / "tip4p2005.top");
   const RunConfig config;
-  const RunIdentity before = run_identity(s, config, 1);
+  const RunIdentity before = run_identity(s, config, run_schema(), 1);
   s.virtual_sites[3].b += 1e-9;
-  EXPECT_NE(run_identity(s, config, 1), before);
+  EXPECT_NE(run_identity(s, config, run_schema(), 1), before);
 }
 

@@ -15,7 +15,9 @@
 #include <cstdlib>
 #include <random>
 
+#include "app/run_schema.hpp"
 #include "engine/input.hpp"
+#include "forcefields/input_checks.hpp"
 #include "forcefields/ewald_mesh.hpp"
 
 namespace {
@@ -81,7 +83,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s RUN.toml NX NY NZ ORDER BETA [CALLS [BATCHES]]\n", argv[0]);
     return 2;
   }
-  const vimd::RunInput input = vimd::read_run_input(argv[1]);
+  const vimd::RunInput input = vimd::read_run_input(argv[1], vimd::run_schema(), {}, vimd::check_force_field_input);
   const vimd::EwaldMeshParameters p{{std::atoi(argv[2]), std::atoi(argv[3]), std::atoi(argv[4])},
                                     std::atoi(argv[5]),
                                     std::atof(argv[6]),

@@ -13,7 +13,9 @@
 #include <cstdio>
 #include <random>
 
+#include "app/run_schema.hpp"
 #include "engine/input.hpp"
+#include "forcefields/input_checks.hpp"
 #include "forcefields/nonbonded/neighbor_list.hpp"
 #include "forcefields/nonbonded/nonbonded_kernels.hpp"
 #include "forcefields/nonbonded/nonbonded_pair_term.hpp"
@@ -46,9 +48,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (argc == 3) vimd::simd::use_target(argv[2]);
-  const vimd::RunInput input = vimd::read_run_input(argv[1]);
+  const vimd::RunInput input = vimd::read_run_input(argv[1], vimd::run_schema(), {}, vimd::check_force_field_input);
   const vimd::System& system = input.system;
   const vimd::Coords& q = input.state.q;
+  const vimd::ForceFieldConfig& ff = vimd::forcefield_config(input.config);
   std::mt19937_64 rng(1);
   std::normal_distribution<double> normal(0.0, 1.0);
   vimd::Coords u(3, q.cols());
@@ -56,15 +59,14 @@ int main(int argc, char** argv) {
     for (int k = 0; k < 3; ++k) u(k, i) = normal(rng);
 
   std::printf("SIMD %s (%d doubles per vector)\n", vimd::simd::target_name().c_str(), vimd::simd::lanes());
-  std::printf("%d atoms, cutoff %.3f nm, skin %.3f nm, %s, %s\n", system.n_atoms(), input.config.forcefield.cutoff,
-              input.config.forcefield.neighbor_skin, input.config.forcefield.vdw_modifier.c_str(),
-              input.config.forcefield.coulomb.c_str());
+  std::printf("%d atoms, cutoff %.3f nm, skin %.3f nm, %s, %s\n", system.n_atoms(), ff.cutoff, ff.neighbor_skin,
+              ff.vdw_modifier.c_str(), ff.coulomb.c_str());
   const vimd::Coords q_early = q + 0.01 * input.state.v, q_late = q + 0.03 * input.state.v;
   std::printf("%-8s%14s%18s%22s%16s%16s%12s\n", "threads", "forces ms", "+energies ms", "HVP after forces ms",
               "HVP alone ms", "list build ms", "prune ms");
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
-    auto field = vimd::make_force_field(system, input.config.forcefield);
+    auto field = vimd::make_force_field(system, ff);
     vimd::Forces forces;
     vimd::Coords hu;
     field->compute(q, forces);
@@ -73,14 +75,13 @@ int main(int argc, char** argv) {
     field->hessian_vector(q, u, hu);  // from here on force passes keep their cut-off masks
     field->compute(q, forces);
     const double hvp_reuse_ms = best_ms(10, [&] { field->hessian_vector(q, u, hu); });
-    auto cold = vimd::make_force_field(system, input.config.forcefield);
+    auto cold = vimd::make_force_field(system, ff);
     cold->hessian_vector(q, u, hu);
     const double hvp_ms = best_ms(10, [&] { cold->hessian_vector(q, u, hu); });
-    vimd::NeighborList list(system.box, input.config.forcefield.cutoff, input.config.forcefield.neighbor_skin,
-                            system.exclusions);
+    vimd::NeighborList list(system.box, ff.cutoff, ff.neighbor_skin, system.exclusions);
     const double build_ms = best_ms(3, [&] { list.build(q); });
     // The searched list's own time per pruning, from the work counters: no search in between.
-    auto pruned = vimd::make_force_field(system, input.config.forcefield);
+    auto pruned = vimd::make_force_field(system, ff);
     pruned->compute_forces(q, forces);
     double prune_ms = INFINITY;
     for (int batch = 0; batch < 7; ++batch) {

@@ -282,7 +282,7 @@ Any key of the file's tables can be given; `integrator` stands for [integrator] 
             auto& s = self.cast<PySimulation&>();
             std::function<void()> call;
             if (callback) call = [f = *callback, self]() { f(self); };
-            s.advance(n.value_or(s.model().input.config.integrator.steps), call, every);
+            s.advance(n.value_or(s.model().input.config.dynamics.steps), call, every);
           },
           py::arg("n") = py::none(), py::arg("callback") = py::none(), py::arg("every") = 1,
           "advance n steps (default: the file's steps), calling callback(sim) after every `every`-th step "

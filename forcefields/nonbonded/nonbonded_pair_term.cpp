@@ -492,7 +492,7 @@ void NonbondedPairTerm::add_pair_hessian_vector(Workspace& w, const Visit& visit
 }
 
 std::vector<std::string> pair_list_warnings(const RunConfig& config, const Box& box) {
-  const ForceFieldConfig& ff = config.forcefield;
+  const ForceFieldConfig& ff = forcefield_config(config);
   double shortest = INFINITY;
   for (int k = 0; k < 3; ++k)
     if (box.length[k] > 0) shortest = std::min(shortest, box.length[k]);

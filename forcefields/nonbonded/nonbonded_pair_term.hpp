@@ -25,7 +25,7 @@
 #include <utility>
 #include <vector>
 
-#include "engine/config.hpp"
+#include "forcefields/settings.hpp"
 #include "engine/force_field.hpp"
 #include "engine/system.hpp"
 #include "forcefields/nonbonded/nonbonded_kernels.hpp"

@@ -17,8 +17,8 @@
 #include <string>
 #include <type_traits>
 
-#include "engine/config.hpp"
 #include "forcefields/nonbonded/switch_function.hpp"
+#include "forcefields/settings.hpp"
 
 namespace vimd {
 

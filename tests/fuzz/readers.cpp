@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "app/run_schema.hpp"
 #include "engine/config.hpp"
 #include "engine/errors.hpp"
 #include "engine/gromacs/gro.hpp"
@@ -74,7 +75,7 @@ void read_bytes(Reader reader, const std::uint8_t* data, std::size_t size) {
     switch (reader) {
       case Reader::Gro: read_gro(files[0]); break;
       case Reader::Top: read_topology(files[0]); break;
-      case Reader::Toml: read_config(files[0]); break;
+      case Reader::Toml: read_config(files[0], run_schema()); break;
     }
   } catch (const InputError& e) {
     for (const fs::path& file : files)
