@@ -142,10 +142,22 @@ void NeighborList::build(const Coords& q) {
 }
 
 void NeighborList::bin_atoms(const Coords& q) {
+  Vec3 extent;
+  wrap_positions(q, extent);
+  choose_columns(extent);
+  std::vector<int> column_atom_start;
+  const std::vector<int> sorted = sort_into_columns(column_atom_start);
+  assign_slots(sorted, column_atom_start);
+  set_search_positions();
+  group_half_exclusions();
+}
+
+// wrapped_ = q moved into the box along its periodic directions (image_offset_ = q − wrapped_);
+// grid_lo_ and extent: the region the grid covers (the box, or the atoms' span where not periodic).
+void NeighborList::wrap_positions(const Coords& q, Vec3& extent) {
   const int n = n_atoms_;
   wrapped_.resize(3, n);
   image_offset_.resize(3, n);
-  Vec3 lo, extent;
   for (int k = 0; k < 3; ++k) {
     const double length = box_.length[k];
     if (length > 0) {
@@ -159,18 +171,20 @@ void NeighborList::bin_atoms(const Coords& q) {
         wrapped_(k, i) = w;
         image_offset_(k, i) = image;
       }
-      lo[k] = 0;
+      grid_lo_[k] = 0;
       extent[k] = length;
     } else {
       wrapped_.row(k) = q.row(k);
       image_offset_.row(k).setZero();
-      lo[k] = n > 0 ? q.row(k).minCoeff() : 0;
-      extent[k] = n > 0 ? q.row(k).maxCoeff() - lo[k] : 0;
+      grid_lo_[k] = n > 0 ? q.row(k).minCoeff() : 0;
+      extent[k] = n > 0 ? q.row(k).maxCoeff() - grid_lo_[k] : 0;
     }
   }
-  grid_lo_ = lo;
+}
 
-  // Columns about as wide as a cubic cluster of kClusterSize atoms at the mean density.
+// Columns about as wide as a cubic cluster of kClusterSize atoms at the mean density.
+void NeighborList::choose_columns(const Vec3& extent) {
+  const int n = n_atoms_;
   constexpr double kMinExtent = 1e-3;  // nm; keeps the density finite for flat or single-atom systems
   const double volume =
       std::max(extent[0], kMinExtent) * std::max(extent[1], kMinExtent) * std::max(extent[2], kMinExtent);
@@ -183,18 +197,23 @@ void NeighborList::bin_atoms(const Coords& q) {
     larger = std::max(1, larger / 2);
   }
   for (int k = 0; k < 2; ++k) column_width_[k] = extent[k] > 0 ? extent[k] / n_columns_[k] : 1.0;
+}
 
+// The atoms by column, each column's by z (leading atoms first within each half-cluster's run
+// where given); column c's are [column_atom_start[c], column_atom_start[c + 1]).
+std::vector<int> NeighborList::sort_into_columns(std::vector<int>& column_atom_start) const {
+  const int n = n_atoms_;
   const int n_columns = n_columns_[0] * n_columns_[1];
   std::vector<int> column_of(n);
   std::vector<int> column_count(n_columns + 1, 0);
   for (int i = 0; i < n; ++i) {
     int c[2];
     for (int k = 0; k < 2; ++k)
-      c[k] = std::clamp(static_cast<int>((wrapped_(k, i) - lo[k]) / column_width_[k]), 0, n_columns_[k] - 1);
+      c[k] = std::clamp(static_cast<int>((wrapped_(k, i) - grid_lo_[k]) / column_width_[k]), 0, n_columns_[k] - 1);
     column_of[i] = c[0] * n_columns_[1] + c[1];
     ++column_count[column_of[i] + 1];
   }
-  std::vector<int> column_atom_start(n_columns + 1, 0);
+  column_atom_start.assign(n_columns + 1, 0);
   std::partial_sum(column_count.begin(), column_count.end(), column_atom_start.begin());
   std::vector<int> sorted(n);
   {
@@ -212,7 +231,14 @@ void NeighborList::bin_atoms(const Coords& q) {
       std::stable_partition(half, half + std::min<std::ptrdiff_t>(kHalf, end - half),
                             [&](int a) { return leading_[a] != 0; });
   }
+  return sorted;
+}
 
+// Each column's atoms fill whole clusters of their own, in sorted order: slot_atom_, atom_slot_,
+// column_cluster_start_, n_clusters_.
+void NeighborList::assign_slots(const std::vector<int>& sorted, const std::vector<int>& column_atom_start) {
+  const int n = n_atoms_;
+  const int n_columns = n_columns_[0] * n_columns_[1];
   column_cluster_start_.assign(n_columns + 1, 0);
   for (int c = 0; c < n_columns; ++c) {
     const int atoms = column_atom_start[c + 1] - column_atom_start[c];
@@ -233,6 +259,12 @@ void NeighborList::bin_atoms(const Coords& q) {
       atom_slot_[sorted[k]] = slot;
     }
   }
+}
+
+// The search's single-precision positions in slot order (padding far away, each slot elsewhere),
+// which slots hold atoms, and the bound on the rounding of the distances computed from them.
+void NeighborList::set_search_positions() {
+  const int n = n_atoms_;
   cluster_occupancy_.assign(n_clusters_, 0u);
   for (auto& w : slot_wrapped_) w.resize(slot_atom_.size());
   for (int s = 0; s < n_slots(); ++s) {
@@ -244,17 +276,20 @@ void NeighborList::bin_atoms(const Coords& q) {
     cluster_occupancy_[s / kCluster] |= 1u << (s % kCluster);
     for (int k = 0; k < 3; ++k) slot_wrapped_[k][s] = static_cast<float>(wrapped_(k, a));
   }
-  // The search's distances are computed from these and the shifts.
   double largest = 0;
   for (int k = 0; k < 3; ++k)
     if (n > 0) largest = std::max(largest, wrapped_.row(k).cwiseAbs().maxCoeff());
   double largest_shift = 0;
   for (const Vec3& shift : shift_vectors_) largest_shift = std::max(largest_shift, shift.cwiseAbs().maxCoeff());
   search_rounding_ = single_precision_rounding(largest + largest_shift + cutoff_ + skin_);
-  // Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half
-  // has its partners in one or two clusters), so that a mask needs only a few comparisons. Each
-  // thread groups its halves' pairs in its own buffer (the lookups miss the cache: the atoms of a
-  // half are far apart in atom order).
+}
+
+// Per i-half: which rows hold atoms, and the excluded pairs grouped by j-cluster (a water half
+// has its partners in one or two clusters), so that a mask needs only a few comparisons. Each
+// thread groups its halves' pairs in its own buffer (the lookups miss the cache: the atoms of a
+// half are far apart in atom order).
+void NeighborList::group_half_exclusions() {
+  const int n = n_atoms_;
   const int n_halves = this->n_halves();
   half_rows_.assign(n_halves, 0u);
   half_exclusion_start_.assign(n_halves + 1, 0);

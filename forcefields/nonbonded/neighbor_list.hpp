@@ -142,7 +142,14 @@ class NeighborList {
   struct Bounds {
     Vec3 lo, hi;
   };
+  // The layout of a build: bin_atoms does these in order.
   void bin_atoms(const Coords& q);
+  void wrap_positions(const Coords& q, Vec3& extent);
+  void choose_columns(const Vec3& extent);
+  std::vector<int> sort_into_columns(std::vector<int>& column_atom_start) const;
+  void assign_slots(const std::vector<int>& sorted, const std::vector<int>& column_atom_start);
+  void set_search_positions();
+  void group_half_exclusions();
   void compute_bounds();
   void search_pairs();
   void collect_excluded_pairs();
