@@ -201,7 +201,9 @@ struct SharedSwitch {
     g += gb;
   }
 
-  // The coefficients of U = U_A + U_B unswitched, then of U·S.
+  // The coefficients of U = U_A + U_B unswitched, then of U·S. Each call takes its parameters from
+  // at() (the compiler merges the loads): holding them in one variable changes which products the
+  // compiler fuses into multiply-adds, so the single-precision results would round differently.
   template <class Real, class FormSet>
   static HWY_INLINE void hessian(const PairViewOf<Real, FormSet>& d, const Half<Real>& hi, int ii, const JBlock<Real>& j,
                                  const PairDistance<SimdVec<Real>>& p, SimdVec<Real>& a, SimdVec<Real>& b) {
