@@ -370,31 +370,44 @@ inline void NeighborList::entry_masks(int i_cluster, int j_cluster, int shift_in
   }
 }
 
+// What every i-cluster's search reads, prepared once per search.
+struct NeighborList::SearchInputs {
+  double list_range, range2;
+  ClusterPairKernel kernel;
+  BoxBatchKernel box_batch;
+  const double* lo[3];  // cluster bounding boxes
+  const double* hi[3];
+  const float* x;  // wrapped build positions in slot order
+  const float* y;
+  const float* z;
+  // The atom pairs are tested in single precision: within the range widened by the rounding, so
+  // that no pair within it is missed, and `nearest` lowered by it, so that it stays a lower bound.
+  float near_range2;
+  std::vector<std::array<float, 3>> shift_single;
+};
+
 void NeighborList::search_pairs() {
-  const double list_range = cutoff_ + skin_;
-  const double range2 = list_range * list_range;
-  const int n_halves = 2 * n_clusters_;
+  SearchInputs in;
+  in.list_range = cutoff_ + skin_;
+  in.range2 = in.list_range * in.list_range;
+  in.kernel = simd::cluster_pair_kernel();
+  in.box_batch = simd::box_batch_kernel();
+  for (int k = 0; k < 3; ++k) in.lo[k] = cluster_lo_[k].data(), in.hi[k] = cluster_hi_[k].data();
+  in.x = slot_wrapped_[0].data();
+  in.y = slot_wrapped_[1].data();
+  in.z = slot_wrapped_[2].data();
+  in.near_range2 = static_cast<float>((in.list_range + search_rounding_) * (in.list_range + search_rounding_));
+  in.shift_single.resize(shift_vectors_.size());
+  for (std::size_t si = 0; si < shift_vectors_.size(); ++si)
+    for (int k = 0; k < 3; ++k) in.shift_single[si][k] = static_cast<float>(shift_vectors_[si][k]);
 
   // Clusters are shared out dynamically (the half list gives early clusters more partners); each
   // thread appends its entries to its own buffer and notes where each half's entries went. The
   // entries stay there (numbered in half order, so nothing depends on the thread count): a pruning
   // reads them by half, and entries() puts them in one array only where a caller asks.
-  half_start_.assign(n_halves + 1, 0);
-  half_place_.assign(n_halves, {});
+  half_start_.assign(2 * n_clusters_ + 1, 0);
+  half_place_.assign(2 * n_clusters_, {});
   search_chunks_.resize(omp_get_max_threads());
-  const ClusterPairKernel kernel = simd::cluster_pair_kernel();
-  const BoxBatchKernel box_batch = simd::box_batch_kernel();
-  const double* const lo[3] = {cluster_lo_[0].data(), cluster_lo_[1].data(), cluster_lo_[2].data()};
-  const double* const hi[3] = {cluster_hi_[0].data(), cluster_hi_[1].data(), cluster_hi_[2].data()};
-  // The atom pairs are tested in single precision: within the range widened by the rounding, so
-  // that no pair within it is missed, and `nearest` lowered by it, so that it stays a lower bound.
-  const float* const x = slot_wrapped_[0].data();
-  const float* const y = slot_wrapped_[1].data();
-  const float* const z = slot_wrapped_[2].data();
-  const float near_range2 = static_cast<float>((list_range + search_rounding_) * (list_range + search_rounding_));
-  std::vector<std::array<float, 3>> shift_single(shift_vectors_.size());
-  for (std::size_t si = 0; si < shift_vectors_.size(); ++si)
-    for (int k = 0; k < 3; ++k) shift_single[si][k] = static_cast<float>(shift_vectors_[si][k]);
 #pragma omp parallel if (n_atoms_ >= kParallelSearchAtoms)
   {
     const int t = omp_get_thread_num();
@@ -402,89 +415,98 @@ void NeighborList::search_pairs() {
     if (chunks.empty()) chunks.emplace_back();
     for (SearchChunk& chunk : chunks) chunk.entries.clear(), chunk.nearest.clear();
     int chunk = 0;
-    std::vector<Entry> found[2];
-    std::vector<NearestDistance> found_nearest[2];
-    std::uint64_t near[kBoxBatch];
-    float nearest[kBoxBatch][2] = {};  // finite from the start: the kernel converts all of it
+    FoundEntries found;
 #pragma omp for schedule(dynamic, 8)
     for (int a_cluster = 0; a_cluster < n_clusters_; ++a_cluster) {
-      // Candidates by the bounding box of the whole i-cluster, then per half.
-      const Bounds& ba = cluster_bounds_[a_cluster];
-      for (int hh = 0; hh < 2; ++hh) found[hh].clear(), found_nearest[hh].clear();
-      for (int si = 0; si < static_cast<int>(shift_vectors_.size()); ++si) {
-        const Vec3& shift = shift_vectors_[si];
-        int c_lo[2], c_hi[2];
-        bool empty = false;
-        for (int k = 0; k < 2; ++k) {
-          const double lo = (ba.lo[k] - list_range - shift[k] - grid_lo_[k]) / column_width_[k];
-          const double hi = (ba.hi[k] + list_range - shift[k] - grid_lo_[k]) / column_width_[k];
-          if (hi < 0 || lo >= n_columns_[k]) {
-            empty = true;
-            break;
-          }
-          c_lo[k] = std::max(0, static_cast<int>(std::floor(lo)));
-          c_hi[k] = std::min(n_columns_[k] - 1, static_cast<int>(std::floor(hi)));
-        }
-        if (empty) continue;
-        const bool positive = is_positive_image(shift_images_[si]);
-        // Clusters are numbered column by column, so clusters b ≥ a_cluster live in columns from
-        // a_cluster's own column on.
-        const int a_column =
-            static_cast<int>(std::upper_bound(column_cluster_start_.begin(), column_cluster_start_.end(), a_cluster) -
-                             column_cluster_start_.begin() - 1);
-        for (int cx = std::max(c_lo[0], a_column / n_columns_[1]); cx <= c_hi[0]; ++cx)
-          for (int cy = c_lo[1]; cy <= c_hi[1]; ++cy) {
-            const int column = cx * n_columns_[1] + cy;
-            const int column_end = column_cluster_start_[column + 1];
-            if (column_end <= a_cluster) continue;
-            // Bounding-box distances of kBoxBatch clusters of the column at once.
-            for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kBoxBatch) {
-              unsigned candidates = box_batch(lo, hi, b0, ba.lo.data(), ba.hi.data(), shift.data(), range2);
-              if (column_end - b0 < kBoxBatch) candidates &= (1u << (column_end - b0)) - 1;
-              // The half list keeps a cluster's own images for one of ±shift only.
-              if (b0 == a_cluster && si != zero_shift_ && !positive) candidates &= ~1u;
-              if (candidates == 0) continue;
-              kernel(x, y, z, a_cluster * kCluster, b0, candidates, shift_single[si].data(), near_range2,
-                     static_cast<float>(search_rounding_), near, nearest);
-              for (; candidates; candidates &= candidates - 1) {
-                const int c = __builtin_ctz(candidates);
-                std::uint32_t masks[2];
-                entry_masks(a_cluster, b0 + c, si, near[c], masks);
-                for (int hh = 0; hh < 2; ++hh)
-                  if (masks[hh] != 0) {
-                    found[hh].push_back(Entry::make(b0 + c, si, masks[hh]));
-                    found_nearest[hh].push_back(encode_nearest(nearest[c][hh]));
-                  }
-              }
-            }
-          }
-      }
-      // A full chunk is left as it is and the next one taken: one vector of all the entries would
-      // copy them as it grew and hold both copies at once, the largest allocation of a run.
-      const std::size_t n_found = found[0].size() + found[1].size();
-      if (chunks[chunk].entries.size() + n_found > kSearchChunkEntries && !chunks[chunk].entries.empty() &&
-          ++chunk == static_cast<int>(chunks.size()))
-        chunks.emplace_back();
-      SearchChunk& out = chunks[chunk];
-      const std::size_t needed = out.entries.size() + n_found;
-      if (out.entries.capacity() < needed) {  // doubling, but not past a chunk
-        const std::size_t capacity = std::min(std::max(2 * out.entries.capacity(), needed),
-                                              std::max(kSearchChunkEntries, needed));
-        out.entries.reserve(capacity);
-        out.nearest.reserve(capacity);
-      }
-      // found[hh] is in the loops' order: by shift, then by j-cluster (columns and the clusters in
-      // each in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
-      for (int hh = 0; hh < 2; ++hh) {
-        const int h = 2 * a_cluster + hh;
-        half_start_[h + 1] = static_cast<int>(found[hh].size());
-        half_place_[h] = {t, chunk, static_cast<int>(out.entries.size())};
-        out.entries.insert(out.entries.end(), found[hh].begin(), found[hh].end());
-        out.nearest.insert(out.nearest.end(), found_nearest[hh].begin(), found_nearest[hh].end());
-      }
+      search_cluster(a_cluster, in, found);
+      store_found(a_cluster, t, found, chunks, chunk);
     }
   }
   std::partial_sum(half_start_.begin(), half_start_.end(), half_start_.begin());
+}
+
+bool NeighborList::column_range(const Bounds& bounds, const Vec3& shift, double list_range, int c_lo[2],
+                                int c_hi[2]) const {
+  for (int k = 0; k < 2; ++k) {
+    const double lo = (bounds.lo[k] - list_range - shift[k] - grid_lo_[k]) / column_width_[k];
+    const double hi = (bounds.hi[k] + list_range - shift[k] - grid_lo_[k]) / column_width_[k];
+    if (hi < 0 || lo >= n_columns_[k]) return false;
+    c_lo[k] = std::max(0, static_cast<int>(std::floor(lo)));
+    c_hi[k] = std::min(n_columns_[k] - 1, static_cast<int>(std::floor(hi)));
+  }
+  return true;
+}
+
+void NeighborList::search_cluster(int a_cluster, const SearchInputs& in, FoundEntries& found) const {
+  std::uint64_t near[kBoxBatch];
+  float nearest[kBoxBatch][2] = {};  // finite from the start: the kernel converts all of it
+  // Candidates by the bounding box of the whole i-cluster, then per half.
+  const Bounds& ba = cluster_bounds_[a_cluster];
+  for (int hh = 0; hh < 2; ++hh) found.entries[hh].clear(), found.nearest[hh].clear();
+  // Clusters are numbered column by column, so clusters b ≥ a_cluster live in columns from
+  // a_cluster's own column on.
+  const int a_column =
+      static_cast<int>(std::upper_bound(column_cluster_start_.begin(), column_cluster_start_.end(), a_cluster) -
+                       column_cluster_start_.begin() - 1);
+  for (int si = 0; si < static_cast<int>(shift_vectors_.size()); ++si) {
+    const Vec3& shift = shift_vectors_[si];
+    int c_lo[2], c_hi[2];
+    if (!column_range(ba, shift, in.list_range, c_lo, c_hi)) continue;
+    const bool positive = is_positive_image(shift_images_[si]);
+    for (int cx = std::max(c_lo[0], a_column / n_columns_[1]); cx <= c_hi[0]; ++cx)
+      for (int cy = c_lo[1]; cy <= c_hi[1]; ++cy) {
+        const int column = cx * n_columns_[1] + cy;
+        const int column_end = column_cluster_start_[column + 1];
+        if (column_end <= a_cluster) continue;
+        // Bounding-box distances of kBoxBatch clusters of the column at once.
+        for (int b0 = std::max(a_cluster, column_cluster_start_[column]); b0 < column_end; b0 += kBoxBatch) {
+          unsigned candidates = in.box_batch(in.lo, in.hi, b0, ba.lo.data(), ba.hi.data(), shift.data(), in.range2);
+          if (column_end - b0 < kBoxBatch) candidates &= (1u << (column_end - b0)) - 1;
+          // The half list keeps a cluster's own images for one of ±shift only.
+          if (b0 == a_cluster && si != zero_shift_ && !positive) candidates &= ~1u;
+          if (candidates == 0) continue;
+          in.kernel(in.x, in.y, in.z, a_cluster * kCluster, b0, candidates, in.shift_single[si].data(),
+                    in.near_range2, static_cast<float>(search_rounding_), near, nearest);
+          for (; candidates; candidates &= candidates - 1) {
+            const int c = __builtin_ctz(candidates);
+            std::uint32_t masks[2];
+            entry_masks(a_cluster, b0 + c, si, near[c], masks);
+            for (int hh = 0; hh < 2; ++hh)
+              if (masks[hh] != 0) {
+                found.entries[hh].push_back(Entry::make(b0 + c, si, masks[hh]));
+                found.nearest[hh].push_back(encode_nearest(nearest[c][hh]));
+              }
+          }
+        }
+      }
+  }
+}
+
+void NeighborList::store_found(int a_cluster, int thread, const FoundEntries& found, std::vector<SearchChunk>& chunks,
+                               int& chunk) {
+  // A full chunk is left as it is and the next one taken: one vector of all the entries would
+  // copy them as it grew and hold both copies at once, the largest allocation of a run.
+  const std::size_t n_found = found.entries[0].size() + found.entries[1].size();
+  if (chunks[chunk].entries.size() + n_found > kSearchChunkEntries && !chunks[chunk].entries.empty() &&
+      ++chunk == static_cast<int>(chunks.size()))
+    chunks.emplace_back();
+  SearchChunk& out = chunks[chunk];
+  const std::size_t needed = out.entries.size() + n_found;
+  if (out.entries.capacity() < needed) {  // doubling, but not past a chunk
+    const std::size_t capacity =
+        std::min(std::max(2 * out.entries.capacity(), needed), std::max(kSearchChunkEntries, needed));
+    out.entries.reserve(capacity);
+    out.nearest.reserve(capacity);
+  }
+  // found is in the search's order: by shift, then by j-cluster (columns and the clusters in each
+  // in numbering order), as the pair kernels want it (a run of one shift shifts the i atoms once).
+  for (int hh = 0; hh < 2; ++hh) {
+    const int h = 2 * a_cluster + hh;
+    half_start_[h + 1] = static_cast<int>(found.entries[hh].size());
+    half_place_[h] = {thread, chunk, static_cast<int>(out.entries.size())};
+    out.entries.insert(out.entries.end(), found.entries[hh].begin(), found.entries[hh].end());
+    out.nearest.insert(out.nearest.end(), found.nearest[hh].begin(), found.nearest[hh].end());
+  }
 }
 
 NeighborList::NearestDistance NeighborList::encode_nearest(float distance) {

@@ -151,7 +151,16 @@ class NeighborList {
   void set_search_positions();
   void group_half_exclusions();
   void compute_bounds();
+  // The search: every i-cluster's halves against the clusters of the columns in range, per shift.
+  struct SearchInputs;
+  struct FoundEntries {  // one i-cluster's, per half
+    std::vector<Entry> entries[2];
+    std::vector<NearestDistance> nearest[2];
+  };
   void search_pairs();
+  // The columns within list_range of the bounds moved by −shift, c_lo[k]..c_hi[k]; false if none.
+  bool column_range(const Bounds& bounds, const Vec3& shift, double list_range, int c_lo[2], int c_hi[2]) const;
+  void search_cluster(int a_cluster, const SearchInputs& in, FoundEntries& found) const;
   void collect_excluded_pairs();
   void order_shares();
   // x, y, z[slot of a] = value(a) for every atom a, and 0 at the padding (the packers' work).
@@ -216,6 +225,8 @@ class NeighborList {
   };
   std::vector<std::vector<SearchChunk>> search_chunks_;
   std::vector<HalfPlace> half_place_;
+  // Appends one i-cluster's entries to this thread's chunks (a new chunk when the current one is full).
+  void store_found(int a_cluster, int thread, const FoundEntries& found, std::vector<SearchChunk>& chunks, int& chunk);
   const SearchChunk& chunk_of(std::size_t h) const {
     return search_chunks_[half_place_[h].thread][half_place_[h].chunk];
   }
