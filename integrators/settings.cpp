@@ -1,5 +1,7 @@
 #include "integrators/settings.hpp"
 
+#include "integrators/registry.hpp"
+
 namespace vimd {
 
 namespace {
@@ -181,7 +183,7 @@ void add_runge_kutta_keys(std::vector<ConfigKey>& k) {
 
 ConfigKey integrator_type_key() {
   return choice_key<&IntegratorSettings::type>(
-      "integrator", "type", {"verlet", "shake", "rattle", "vi", "rk", "minimize"}, kMustMatch,
+      "integrator", "type", integrator_names(), kMustMatch,
       "the integrator (vi: variational from a Runge-Kutta method; rk: projected Runge-Kutta)");
 }
 
