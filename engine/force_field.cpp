@@ -1,6 +1,7 @@
 #include "engine/force_field.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -16,6 +17,18 @@ void set_zero(Coords& x, Eigen::Index n_atoms) {
 }
 
 }  // namespace
+
+int first_non_finite(const Coords& q) {
+  for (Eigen::Index i = 0; i < q.cols(); ++i)
+    if (!q.col(i).allFinite()) return static_cast<int>(i);
+  return -1;
+}
+
+std::string position_text(const Coords& q, int i) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "(%g, %g, %g)", q(0, i), q(1, i), q(2, i));
+  return buf;
+}
 
 void ForceField::add(std::unique_ptr<ForceTerm> term) {
   auto names = term->energy_names();
@@ -113,6 +126,9 @@ void ForceField::hessian_vector(const Coords& q_atoms, const Coords& u_atoms, Co
 }
 
 void ForceField::single_point(const Coords& q_atoms, Forces& out) const {
+  if (const int bad = first_non_finite(q_atoms); bad >= 0)
+    throw std::invalid_argument("no energy or forces at non-finite positions: atom " + std::to_string(bad + 1) +
+                                " is at " + position_text(q_atoms, bad));
   Coords placed;
   if (sites_) {
     placed = q_atoms;

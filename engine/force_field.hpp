@@ -174,6 +174,12 @@ class SiteConstruction {
   virtual bool linear() const = 0;
 };
 
+// The first atom (column) of q with a NaN or infinite coordinate, or -1. There is no energy at such
+// a q, and the pair search would leave the atom out unnoticed: the sum would look plausible.
+int first_non_finite(const Coords& q);
+// "(nan, 1.378, 0.114)": atom i's position as an error message shows it.
+std::string position_text(const Coords& q, int i);
+
 class ForceField {
  public:
   void add(std::unique_ptr<ForceTerm> term);
@@ -187,7 +193,9 @@ class ForceField {
   void hessian_vector(const Coords& q, const Coords& u, Coords& out, const Evaluation& how = {});
   // Energies and forces at q as a freshly made field would compute them (pair lists built at q):
   // an observation. Const: nothing the field keeps for later evaluations changes, so observing a
-  // state cannot change a trajectory. Not counted as work.
+  // state cannot change a trajectory. Not counted as work. std::invalid_argument naming the first
+  // atom whose position is not finite (first_non_finite): checked here, once per observation,
+  // rather than in the runs' evaluations, whose steps check_sane checks.
   void single_point(const Coords& q, Forces& out) const;
 
   // Sets `pairs` up for a variational step starting at q. The evaluations that pass it (Evaluation::step)

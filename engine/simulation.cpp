@@ -48,15 +48,6 @@ Sample Simulation::sample(const State& state, const StepReport& report) const {
 
 namespace {
 
-std::string atom_label(const System& system, int i) {
-  std::string label = "atom " + std::to_string(i + 1);
-  if (i < static_cast<int>(system.atom_names.size()) && i < static_cast<int>(system.residue_names.size()) &&
-      i < static_cast<int>(system.residue_numbers.size()))
-    label += " (" + system.atom_names[i] + " of " + system.residue_names[i] + " " +
-             std::to_string(system.residue_numbers[i]) + ")";
-  return label;
-}
-
 // Beyond these a state is not physics any more: an H atom under 1e6 kJ/mol/nm moves 2 nm in a 2 fs
 // step; 1e3 nm/ps is ~300 times the thermal speed of H at 1000 K.
 constexpr double kAbsurdForce = 1e6;     // kJ/mol/nm
@@ -97,7 +88,7 @@ void Simulation::check_sane(const State& state, State* copy) const {
                                                           : nullptr;
     if (!what) continue;
     if (!worst) worst = what;
-    if (++count <= 5) atoms += std::string(atoms.empty() ? "" : ", ") + atom_label(system, i) + " " + what;
+    if (++count <= 5) atoms += std::string(atoms.empty() ? "" : ", ") + system.atom_label(i) + " " + what;
   }
   if (count == 0 && (std::isfinite(state.potential) || !problem_.energies_due)) return;
   std::string message = state.step == start_step_ ? "the start state is unusable: "

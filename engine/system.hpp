@@ -98,6 +98,14 @@ struct System {
   Box box;
 
   int n_atoms() const { return static_cast<int>(mass.size()); }
+  // "atom 5 (OW of SOL 2)": atom i, 1-based, with its names where the system has them.
+  std::string atom_label(int i) const {
+    std::string label = "atom " + std::to_string(i + 1);
+    if (i < static_cast<int>(atom_names.size()) && i < static_cast<int>(residue_names.size()) &&
+        i < static_cast<int>(residue_numbers.size()))
+      label += " (" + atom_names[i] + " of " + residue_names[i] + " " + std::to_string(residue_numbers[i]) + ")";
+    return label;
+  }
   // 1/m per atom; 0 for a virtual site (no mass, no acceleration of its own).
   Eigen::VectorXd inverse_mass() const { return (mass.array() > 0).select(mass.cwiseInverse(), 0.0); }
   // Degrees of freedom for the temperature: 3N − constraints − 3 (removed centre-of-mass motion),

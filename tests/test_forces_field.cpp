@@ -63,6 +63,21 @@ TEST(ForceField, EnergyPartsAreAddedToTheirTotalAndCountedOnce) {
                std::logic_error);
 }
 
+// A NaN position gave an energy, plausible where only pair terms see the atom (the pair search
+// leaves it out: SPC/E water under reaction field), with NaN forces. Now refused, naming the atom.
+TEST(ForceField, SinglePointRefusesNonFinitePositionsNamingTheAtom) {
+  auto [system, q] = testing::water_like_system(12, Vec3(2.0, 2.0, 2.0), 11);
+  auto field = make_force_field(system, testing::pair_config("potential-shift", "reaction-field", 0.0));
+  q(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  Forces forces;
+  try {
+    field->single_point(q, forces);
+    FAIL() << "no exception; potential " << forces.potential;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("atom 4 is at (nan, "), std::string::npos) << e.what();
+  }
+}
+
 TEST(ForceFieldRegistry, BuildsAllTermsWithTheirEnergyNames) {
   auto [system, q] = testing::water_like_system(12, Vec3(2.0, 2.0, 2.0), 11);
   auto field = make_force_field(system, testing::pair_config("potential-switch", "reaction-field", 78.0));

@@ -9,6 +9,9 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <numeric>
+#include <optional>
+#include <stdexcept>
+#include <thread>
 
 #include "app/model.hpp"
 #include "engine/errors.hpp"
@@ -42,6 +45,9 @@ class PythonObserver : public Observer {
   std::vector<double> time, conserved, temperature;
 };
 
+// What a use of a Simulation does to it (PySimulation::check_use).
+enum class Use { read, change };
+
 class PySimulation {
  public:
   PySimulation(const std::filesystem::path& config, const ConfigOverrides& overrides)
@@ -55,8 +61,33 @@ class PySimulation {
   }
 
   State& state() { return model_->input.state; }
+  // The state for a read that check_use allows (`what`: the read, for its message).
+  const State& read_state(const std::string& what) const {
+    check_use(Use::read, what);
+    return model_->input.state;
+  }
+  double kinetic_energy(const State& state) const { return run_->integrator->kinetic_energy(run_->problem, state); }
   const Model& model() const { return *model_; }
   Run& run() { return *run_; }
+
+  // A run in progress holds the simulation: its callback, on the running thread, may read the state
+  // but neither change it nor start another run (the loop would go on from a state it did not make,
+  // or from a freed one), and other threads may not use it at all. The GIL does not prevent this: it
+  // passes to other threads while the callback runs Python code. Throws std::runtime_error
+  // (RuntimeError) saying what was refused and what to do instead.
+  void check_use(Use use, const std::string& what) const {
+    if (!holder_) return;
+    if (*holder_ != std::this_thread::get_id())
+      throw std::runtime_error("vimd.Simulation: cannot " + what +
+                               " here: a step() or run() in another thread holds this simulation until it returns. "
+                               "Use a Simulation from one thread at a time (wait for the run, e.g. with "
+                               "Thread.join()), or give each thread its own Simulation");
+    if (use == Use::change)
+      throw std::runtime_error("vimd.Simulation: cannot " + what +
+                               " from a run() callback: the run in progress holds this simulation and would go on "
+                               "from a state it did not make. A callback may read positions, velocities, forces(), "
+                               "energy() and summary(); " + what + " after run() returns");
+  }
 
   // Forces and energies at the current positions: the integrator's after a step, else computed.
   void ensure_forces() {
@@ -71,10 +102,17 @@ class PySimulation {
 
   void set_coords(Coords& target, py::array_t<double, py::array::c_style | py::array::forcecast> values,
                   const char* what) {
+    check_use(Use::change, std::string("assign ") + what);
     const long n = model_->input.system.n_atoms();
     if (values.ndim() != 2 || values.shape(0) != n || values.shape(1) != 3)
       throw InputError("vimd.Simulation", 0,
                        std::string(what) + " must have shape (" + std::to_string(n) + ", 3), got " + shape(values));
+    // Refused before anything changes: no force, energy or step is defined from a non-finite state.
+    const Eigen::Map<const Coords> given(values.data(), 3, n);
+    if (const int bad = first_non_finite(given); bad >= 0)
+      throw InputError("vimd.Simulation", 0,
+                       std::string(what) + " must be finite: " + model_->input.system.atom_label(bad) + " has " +
+                           position_text(given, bad) + "; nothing was changed");
     std::copy(values.data(), values.data() + 3 * n, target.data());
     // A changed state starts afresh: constrained and its forces computed by the next run's init().
     forces_current_ = false;
@@ -82,15 +120,27 @@ class PySimulation {
     attach_observer();
   }
 
-  RunTotals advance(long steps, std::function<void()> callback, long every) {
+  // `name`: the method called ("step()" or "run()"), for check_use's message.
+  RunTotals advance(const char* name, long steps, std::function<void()> callback, long every) {
+    check_use(Use::change, std::string("call ") + name);
     if (steps < 0) throw InputError("vimd.Simulation", 0, "the number of steps must not be negative");
     if (every < 1) throw InputError("vimd.Simulation", 0, "every must be at least 1");
-    observer_->callback = std::move(callback);
+    // A callback sees a stepped state, whose forces and energies are the integrator's: energy() and
+    // forces() there must return them, not overwrite state.f (which the next step uses) with an
+    // observation's, which differs in the last bits.
+    observer_->callback = callback ? [this, callback] {
+      forces_current_ = true;
+      callback();
+    } : std::function<void()>();
     observer_->callback_every = every;
-    struct Reset {
-      PythonObserver* o;
-      ~Reset() { o->callback = nullptr; }
-    } reset{observer_};
+    holder_ = std::this_thread::get_id();
+    struct Release {
+      PySimulation* s;
+      ~Release() {
+        s->observer_->callback = nullptr;
+        s->holder_.reset();
+      }
+    } release{this};
     const RunTotals t = run_->simulation->run(state(), steps);
     forces_current_ = true;
     totals_.add(t);
@@ -156,6 +206,7 @@ class PySimulation {
   long sample_every_ = 10;
   bool forces_current_ = false;
   RunTotals totals_;
+  std::optional<std::thread::id> holder_;  // the thread whose step() or run() is in progress
 };
 
 // A read-only (N, 3) view of a 3×N column-major matrix, kept alive by `owner`.
@@ -250,31 +301,38 @@ Any key of the file's tables can be given; `integrator` stands for [integrator] 
            }),
            py::arg("config"))
       .def(
-          "energy", [](PySimulation& s) { return energy_terms(s); },
+          "energy",
+          [](PySimulation& s) {
+            s.check_use(Use::read, "call energy()");
+            return energy_terms(s);
+          },
           "potential-energy terms at the current positions (kJ/mol), keyed as `vimd energy --json`")
       .def(
           "forces",
           [](py::object self) {
             auto& s = self.cast<PySimulation&>();
+            s.check_use(Use::read, "call forces()");
             s.ensure_forces();
             return view(s.state().f, self);
           },
           "forces (N, 3) in kJ/mol/nm: a read-only view, valid until the next step (np.array(...) keeps it)")
       .def_property(
-          "positions", [](py::object self) { return view(self.cast<PySimulation&>().state().q, self); },
+          "positions",
+          [](py::object self) { return view(self.cast<PySimulation&>().read_state("read positions").q, self); },
           [](PySimulation& s, py::array_t<double, py::array::c_style | py::array::forcecast> x) {
             s.set_coords(s.state().q, x, "positions");
           },
           "positions (N, 3) in nm: a read-only view of the engine's array, valid until the next step; "
           "assigning copies new positions in (constrained at the next step)")
       .def_property(
-          "velocities", [](py::object self) { return view(self.cast<PySimulation&>().state().v, self); },
+          "velocities",
+          [](py::object self) { return view(self.cast<PySimulation&>().read_state("read velocities").v, self); },
           [](PySimulation& s, py::array_t<double, py::array::c_style | py::array::forcecast> v) {
             s.set_coords(s.state().v, v, "velocities");
           },
           "velocities (N, 3) in nm/ps (on-step; SHAKE's are half-step), read-only view; assigning copies")
       .def(
-          "step", [](PySimulation& s, long n) { s.advance(n, nullptr, 1); }, py::arg("n") = 1,
+          "step", [](PySimulation& s, long n) { s.advance("step()", n, nullptr, 1); }, py::arg("n") = 1,
           "advance n steps (a minimiser stops early once converged)")
       .def(
           "run",
@@ -282,15 +340,20 @@ Any key of the file's tables can be given; `integrator` stands for [integrator] 
             auto& s = self.cast<PySimulation&>();
             std::function<void()> call;
             if (callback) call = [f = *callback, self]() { f(self); };
-            s.advance(n.value_or(s.model().input.config.dynamics.steps), call, every);
+            s.advance("run()", n.value_or(s.model().input.config.dynamics.steps), call, every);
           },
           py::arg("n") = py::none(), py::arg("callback") = py::none(), py::arg("every") = 1,
           "advance n steps (default: the file's steps), calling callback(sim) after every `every`-th step "
-          "and after the last")
-      .def("summary", &PySimulation::summary,
+          "and after the last; the callback may read the state, but changing it or stepping raises RuntimeError, "
+          "as does any use from another thread while the run is in progress")
+      .def("summary",
+           [](PySimulation& s) {
+             s.check_use(Use::read, "call summary()");
+             return s.summary();
+           },
            "the current observables, the integrator's diagnostics, and energy statistics and cost over all runs")
-      .def_property_readonly("time", [](PySimulation& s) { return s.state().time; }, "ps")
-      .def_property_readonly("current_step", [](PySimulation& s) { return s.state().step; })
+      .def_property_readonly("time", [](PySimulation& s) { return s.read_state("read time").time; }, "ps")
+      .def_property_readonly("current_step", [](PySimulation& s) { return s.read_state("read current_step").step; })
       .def_property_readonly("n_atoms", [](PySimulation& s) { return s.model().input.system.n_atoms(); })
       .def_property_readonly("integrator", [](PySimulation& s) { return s.run().integrator->name(); })
       .def_property_readonly("masses",
@@ -306,9 +369,9 @@ Any key of the file's tables can be given; `integrator` stands for [integrator] 
       .def_property_readonly("structure", [](PySimulation& s) { return s.model().input.config.structure; })
       .def_property_readonly("topology", [](PySimulation& s) { return s.model().input.config.topology; })
       .def("kinetic_energy",
-           [](PySimulation& s) { return s.run().integrator->kinetic_energy(s.run().problem, s.state()); })
+           [](PySimulation& s) { return s.kinetic_energy(s.read_state("call kinetic_energy()")); })
       .def("temperature", [](PySimulation& s) {
-        const double k = s.run().integrator->kinetic_energy(s.run().problem, s.state());
+        const double k = s.kinetic_energy(s.read_state("call temperature()"));
         const int dof = s.model().input.system.degrees_of_freedom();
         return dof > 0 ? 2 * k / (dof * kBoltzmann) : 0.0;
       });

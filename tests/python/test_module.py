@@ -9,6 +9,8 @@ import os
 import pathlib
 import struct
 import subprocess
+import sys
+import threading
 
 import numpy as np
 import pytest
@@ -248,3 +250,104 @@ def test_non_convergence_is_a_python_exception():
     sim = vimd.Simulation(WATER, integrator="vi", max_iterations=1, solver_tolerance=1e-14)
     with pytest.raises(vimd.ConvergenceError, match="did not converge at step 1"):
         sim.step(3)
+
+
+def test_assigning_positions_in_a_callback_is_refused_not_a_crash():
+    # In a subprocess: the assignment used to free the running loop under it (exit 139), which
+    # would take the test runner down with it.
+    script = f"""
+import numpy as np, vimd
+sim = vimd.Simulation({str(WATER)!r})
+try:
+    sim.run(5, callback=lambda s: setattr(s, "positions", np.array(s.positions)))
+except RuntimeError as e:
+    print("refused:", e)
+print("step", sim.current_step)
+"""
+    p = subprocess.run([sys.executable, "-c", script], text=True, capture_output=True)
+    assert p.returncode == 0, p.stderr
+    assert "refused: vimd.Simulation: cannot assign positions from a run() callback" in p.stdout
+    assert "assign positions after run() returns" in p.stdout
+    assert p.stdout.endswith("step 1\n")  # the run stopped where the callback raised
+
+
+def test_step_from_a_callback_is_refused_and_the_run_keeps_its_count():
+    sim = vimd.Simulation(WATER)
+    refused = []
+
+    def nested(s):
+        try:
+            s.step(5)
+        except RuntimeError as e:
+            refused.append(str(e))
+
+    sim.run(10, callback=nested, every=5)
+    assert len(refused) == 2 and "cannot call step() from a run() callback" in refused[0]
+    assert sim.current_step == 10
+    assert sim.time == pytest.approx(10 * 0.002, rel=1e-12)
+    with pytest.raises(RuntimeError, match=r"cannot call run\(\) from a run\(\) callback"):
+        sim.run(2, callback=lambda s: s.run(1))
+
+
+def test_reading_in_a_callback_changes_nothing():
+    # The callback's energy() and forces() are the integrator's own: computing them afresh would
+    # replace the forces the next step uses with ones that differ in the last bits.
+    plain = vimd.Simulation(WATER)
+    plain.step(10)
+    observed = vimd.Simulation(WATER)
+    seen = []
+    observed.run(10, callback=lambda s: seen.append((s.energy()["potential"], np.array(s.forces()))), every=1)
+    assert len(seen) == 10
+    assert np.array_equal(observed.positions, plain.positions)
+    assert np.array_equal(observed.velocities, plain.velocities)
+    assert seen[-1][0] == plain.energy()["potential"]
+    assert np.array_equal(seen[-1][1], plain.forces())
+
+
+def test_another_thread_cannot_use_a_running_simulation():
+    sim = vimd.Simulation(WATER)
+    inside, release = threading.Event(), threading.Event()
+    runner_errors = []
+
+    def hold(s):  # keeps the run in its callback until the main thread has tried
+        inside.set()
+        release.wait(timeout=120)
+
+    def runner():
+        try:
+            sim.run(3, callback=hold, every=3)
+        except Exception as e:  # noqa: BLE001 - reported by the assertion below
+            runner_errors.append(e)
+
+    thread = threading.Thread(target=runner)
+    thread.start()
+    try:
+        assert inside.wait(timeout=120)
+        with pytest.raises(RuntimeError, match=r"cannot call step\(\) here: a step\(\) or run\(\) in another thread"):
+            sim.step(1)
+        with pytest.raises(RuntimeError, match="cannot read positions here"):
+            sim.positions
+        with pytest.raises(RuntimeError, match="cannot assign velocities here"):
+            sim.velocities = np.zeros((sim.n_atoms, 3))
+    finally:
+        release.set()
+        thread.join()
+    assert runner_errors == []
+    assert sim.current_step == 3 and sim.time == pytest.approx(3 * 0.002, rel=1e-12)
+    sim.step(1)  # free again once the run has returned
+    assert sim.current_step == 4
+
+
+def test_non_finite_positions_and_velocities_are_refused_naming_the_atom():
+    sim = vimd.Simulation(WATER)
+    before = sim.energy()
+    x = np.array(sim.positions)
+    x[3, 0] = np.nan
+    with pytest.raises(vimd.InputError, match=r"positions must be finite: atom 4 \(OW of SOL 2\) has \(nan, "):
+        sim.positions = x
+    v = np.array(sim.velocities)
+    v[7, 2] = -np.inf
+    with pytest.raises(vimd.InputError, match=r"velocities must be finite: atom 8 \(HW1 of SOL 3\) has .*-inf\)"):
+        sim.velocities = v
+    assert sim.energy() == before  # nothing was changed
+    assert np.isfinite(sim.positions).all() and np.isfinite(sim.velocities).all()
