@@ -159,8 +159,11 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   std::fflush(stdout);
   install_stop_handlers();
   run_dir = dir;
-  const RunTotals totals = continuing ? run.simulation->resume(checkpoint, checkpoint.first_step + steps, state)
-                                      : run.simulation->run(state, steps);
+  // The integrator checks the system against its settings as it starts.
+  const RunTotals totals = config.located([&] {
+    return continuing ? run.simulation->resume(checkpoint, checkpoint.first_step + steps, state)
+                      : run.simulation->run(state, steps);
+  });
   if (totals.stop_signal == 0) return 0;
   const char* name = totals.stop_signal == SIGTERM ? "SIGTERM" : totals.stop_signal == SIGINT ? "SIGINT" : "a signal";
   std::fprintf(stderr,
@@ -267,7 +270,7 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
   std::printf("\nsmoothness  %s", describe_smoothness(ff).c_str());
   if (ff.coulomb == "pme") std::printf("\npme         %s", describe_pme(ff, s.box).c_str());
-  std::unique_ptr<Integrator> integrator = make_integrator(integrator_config(c));
+  std::unique_ptr<Integrator> integrator = make_integrator(c);
   std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.dynamics.dt,
               c.dynamics.steps, c.dynamics.steps * c.dynamics.dt);
   std::printf("output      %s (trajectory every %ld, energies every %ld steps)\n", c.output.dir.string().c_str(),

@@ -33,23 +33,23 @@ double ewald_rtol_distance(const ForceFieldConfig& config) {
 EwaldRealSpace EwaldRealSpace::from_config(const ForceFieldConfig& config) {
   EwaldRealSpace e;
   if (config.coulomb != "pme") return e;
-  if (!(config.epsilon_r > 0)) throw InputError("[forcefield]", 0, "epsilon_r must be positive");
+  if (!(config.epsilon_r > 0)) throw SettingError("forcefield", "epsilon_r", "epsilon_r must be positive");
   if (!(config.ewald_rtol > 0 && config.ewald_rtol < 0.1))
-    throw InputError("[forcefield]", 0, "ewald_rtol must be between 0 and 0.1 (exclusive)");
+    throw SettingError("forcefield", "ewald_rtol", "ewald_rtol must be between 0 and 0.1 (exclusive)");
   e.enabled = true;
   e.prefactor = kCoulomb / config.epsilon_r;
   e.ewald_rtol = config.ewald_rtol;
   const std::string& modifier = config.coulomb_modifier;
   if (modifier == "potential-switch") {
     if (!(config.coulomb_switch > 0))
-      throw InputError("[forcefield]", 0,
-                       "coulomb_switch must be positive with coulomb = \"pme\": erfc(beta coulomb_switch) = "
-                       "ewald_rtol fixes beta");
+      throw SettingError("forcefield", "coulomb_switch",
+                         "coulomb_switch must be positive with coulomb = \"pme\": erfc(beta coulomb_switch) = "
+                         "ewald_rtol fixes beta");
     e.modifier = EwaldModifier::potential_switch;
     e.sw = make_switch_function(config.coulomb_switch, config.cutoff, config.switch_smoothness, "coulomb_switch");
   } else if (modifier != "none" && modifier != "potential-shift") {
-    throw InputError("[forcefield]", 0,
-                     "unknown coulomb_modifier '" + modifier + "' (expected none, potential-shift or potential-switch)");
+    throw SettingError("forcefield", "coulomb_modifier",
+                       "unknown coulomb_modifier '" + modifier + "' (expected none, potential-shift or potential-switch)");
   }
   e.beta = ewald_beta(ewald_rtol_distance(config), config.ewald_rtol);
   if (modifier == "potential-shift") e.shift = std::erfc(e.beta * config.cutoff) / config.cutoff;
@@ -102,17 +102,18 @@ int fft_friendly_size(int at_least) {
 
 std::array<int, 3> pme_grid_size(const ForceFieldConfig& config, const Box& box) {
   if (!box.periodic())
-    throw InputError("[forcefield]", 0, "coulomb = \"pme\" needs a box periodic in x, y and z (the structure file's box)");
+    throw SettingError("forcefield", "coulomb",
+                       "coulomb = \"pme\" needs a box periodic in x, y and z (the structure file's box)");
   const int minimum = 2 * (config.pme_order - 1);
   std::array<int, 3> n{};
   for (int d = 0; d < 3; ++d) {
     const std::string key = std::string("fourier_n") + "xyz"[d];
     if (config.fourier_n[d] > 0) {
       if (config.fourier_n[d] < minimum)
-        throw InputError("[forcefield]", 0,
-                         key + " = " + std::to_string(config.fourier_n[d]) + " is too coarse for pme_order " +
-                             std::to_string(config.pme_order) + ": the grid needs at least 2 (pme_order - 1) = " +
-                             std::to_string(minimum) + " points");
+        throw SettingError("forcefield", key,
+                           key + " = " + std::to_string(config.fourier_n[d]) + " is too coarse for pme_order " +
+                               std::to_string(config.pme_order) + ": the grid needs at least 2 (pme_order - 1) = " +
+                               std::to_string(minimum) + " points");
       n[d] = config.fourier_n[d];
     } else {
       n[d] = fft_friendly_size(std::max(static_cast<int>(box.length[d] / config.fourier_spacing + 0.999), minimum));
