@@ -176,11 +176,12 @@ RunInput read_run_input(const std::filesystem::path& config_file, const ConfigSc
   RunInput in;
   in.config = read_config(config_file, schema, overrides);
   const RunConfig& c = in.config;
-  in.system = read_topology(c.topology, bond_constraints(c));
+  in.system = read_topology(c.topology, bond_constraints(c), &in.warnings);
   GroFrame frame = read_gro(c.structure);
   c.located([&] {
     check_hydrogens(in.system, c);
-    in.warnings = apply_structure(in.system, frame, c.structure, c.topology);
+    for (auto& warning : apply_structure(in.system, frame, c.structure, c.topology))
+      in.warnings.push_back(std::move(warning));
     if (check)
       for (auto& warning : check(c, in.system, frame.box, static_cast<int>(frame.x.cols()) + 3))
         in.warnings.push_back(std::move(warning));
