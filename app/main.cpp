@@ -269,7 +269,7 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
               describe_pair_list(*m.force_field).c_str(), ff.precision.c_str());
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
   std::printf("\nsmoothness  %s", describe_smoothness(ff).c_str());
-  if (ff.coulomb == "pme") std::printf("\npme         %s", describe_pme(ff, s.box).c_str());
+  if (ff.coulomb == "pme") std::printf("\npme         %s", describe_pme(ff, s).c_str());
   std::unique_ptr<Integrator> integrator = make_integrator(c);
   std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.dynamics.dt,
               c.dynamics.steps, c.dynamics.steps * c.dynamics.dt);
