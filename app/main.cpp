@@ -147,6 +147,11 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   platform.emplace_back("pinned", options.pinning);
   add_output_observers(run, config, dir, std::move(platform));
   run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
+  run.simulation->on_start_constrained([&](const StartReport& moved) {
+    if (moved.position_change > 0)
+      std::fprintf(stderr, "vimd: the start is constrained: this moves %s\n",
+                   describe_start_change(moved, system).c_str());
+  });
   run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
 
   const int threads = omp_get_max_threads();
@@ -258,8 +263,8 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
   Problem problem{s, *m.force_field, m.constraints, m.inverse_mass};
   State start = m.input.state;
   const StartReport moved = constrain_start(problem, start);
-  std::printf("start       %s;\n            here it moves positions by up to %.3g nm", start_state_description(),
-              moved.position_change);
+  std::printf("start       %s;\n            here it moves %s", start_state_description(),
+              describe_start_change(moved, s).c_str());
   if (has_velocities && !m.input.velocities_generated)
     std::printf(", velocities by up to %.3g nm/ps", moved.velocity_change);
   std::printf("\n");
