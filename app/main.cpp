@@ -147,6 +147,11 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   platform.emplace_back("pinned", options.pinning);
   add_output_observers(run, config, dir, std::move(platform));
   run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
+  run.simulation->on_start_constrained([&](const StartReport& moved) {
+    if (moved.position_change > 0)
+      std::fprintf(stderr, "vimd: the start is constrained: this moves %s\n",
+                   describe_start_change(moved, system).c_str());
+  });
   run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
 
   const int threads = omp_get_max_threads();
@@ -159,8 +164,11 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   std::fflush(stdout);
   install_stop_handlers();
   run_dir = dir;
-  const RunTotals totals = continuing ? run.simulation->resume(checkpoint, checkpoint.first_step + steps, state)
-                                      : run.simulation->run(state, steps);
+  // The integrator checks the system against its settings as it starts.
+  const RunTotals totals = config.located([&] {
+    return continuing ? run.simulation->resume(checkpoint, checkpoint.first_step + steps, state)
+                      : run.simulation->run(state, steps);
+  });
   if (totals.stop_signal == 0) return 0;
   const char* name = totals.stop_signal == SIGTERM ? "SIGTERM" : totals.stop_signal == SIGINT ? "SIGINT" : "a signal";
   std::fprintf(stderr,
@@ -255,8 +263,8 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
   Problem problem{s, *m.force_field, m.constraints, m.inverse_mass};
   State start = m.input.state;
   const StartReport moved = constrain_start(problem, start);
-  std::printf("start       %s;\n            here it moves positions by up to %.3g nm", start_state_description(),
-              moved.position_change);
+  std::printf("start       %s;\n            here it moves %s", start_state_description(),
+              describe_start_change(moved, s).c_str());
   if (has_velocities && !m.input.velocities_generated)
     std::printf(", velocities by up to %.3g nm/ps", moved.velocity_change);
   std::printf("\n");
@@ -266,8 +274,8 @@ int check_command(const fs::path& config_file, const std::string& pinning) {
               describe_pair_list(*m.force_field).c_str(), ff.precision.c_str());
   for (const auto& name : m.force_field->energy_names()) std::printf(" %s", name.c_str());
   std::printf("\nsmoothness  %s", describe_smoothness(ff).c_str());
-  if (ff.coulomb == "pme") std::printf("\npme         %s", describe_pme(ff, s.box).c_str());
-  std::unique_ptr<Integrator> integrator = make_integrator(integrator_config(c));
+  if (ff.coulomb == "pme") std::printf("\npme         %s", describe_pme(ff, s).c_str());
+  std::unique_ptr<Integrator> integrator = make_integrator(c);
   std::printf("\nintegrator  %s, dt %g ps, %ld steps (%g ps)\n", integrator->name().c_str(), c.dynamics.dt,
               c.dynamics.steps, c.dynamics.steps * c.dynamics.dt);
   std::printf("output      %s (trajectory every %ld, energies every %ld steps)\n", c.output.dir.string().c_str(),

@@ -23,18 +23,23 @@ std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, cons
   // A minimiser has no use for velocities: zeros stand in when the structure has none.
   if (m->input.state.v.cols() == 0 && integrator_settings(m->input.config).type == "minimize")
     m->input.state.v = Coords::Zero(3, system.n_atoms());
-  m->force_field = make_force_field(system, forcefield_config(m->input.config));
+  const RunConfig& config = m->input.config;
+  m->force_field = config.located([&] { return make_force_field(system, forcefield_config(config)); });
   m->constraints = Constraints(system.constraints, system.n_atoms(), system.box);
   m->inverse_mass = system.inverse_mass();
   return m;
 }
 
+std::unique_ptr<Integrator> make_integrator(const RunConfig& config) {
+  return config.located([&] { return make_integrator(integrator_config(config)); });
+}
+
 Run::Run(Model& m)
-    : integrator(make_integrator(integrator_config(m.input.config))),
+    : integrator(make_integrator(m.input.config)),
       problem{m.input.system, *m.force_field, m.constraints, m.inverse_mass},
       dt(integrator_settings(m.input.config).type == "minimize" ? 1.0 : m.input.config.dynamics.dt),
       simulation(std::make_unique<Simulation>(problem, *integrator, dt)) {
-  require_velocities(m.input);
+  m.input.config.located([&] { require_velocities(m.input); });
   if (m.input.velocities_generated) {
     // Generated velocities: remove the constraint components before setting the temperature.
     State& state = m.input.state;

@@ -26,6 +26,9 @@ struct Model {
 // warnings are left in input.warnings for the caller to show.
 std::unique_ptr<Model> load_model(const std::filesystem::path& config_file, const ConfigOverrides& overrides = {});
 
+// The run file's integrator (its setting errors at their FILE:LINE).
+std::unique_ptr<Integrator> make_integrator(const RunConfig& config);
+
 // The integrator and the loop for a model, which must outlive it (they refer into it). InputError
 // when the input has no velocities (require_velocities). Velocities generated from the temperature
 // get their constraint components removed and are rescaled to it.

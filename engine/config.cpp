@@ -45,6 +45,8 @@ std::string type_name(const toml::node& node) {
 
 class ConfigReader {
  public:
+  static constexpr const char* kOverrides = "settings given with the config file";
+
   ConfigReader(const fs::path& file, const ConfigSchema& schema)
       : file_(file), dir_(file.parent_path()), schema_(schema), tables_(tables_of(schema)) {}
 
@@ -163,7 +165,6 @@ class ConfigReader {
     throw InputError(file_.string(), static_cast<int>(node.source().begin.line), problem);
   }
 
-  static constexpr const char* kOverrides = "settings given with the config file";
 
   static toml::array to_array(const std::vector<double>& values) {
     toml::array array;
@@ -325,12 +326,20 @@ class ConfigReader {
     std::map<std::pair<std::string, std::string>, NodeInput> inputs_;
   };
 
-  // Every key the table has, read as the schema says.
+  // Every key the table has, read as the schema says, and where the file has it.
   void read_section(const toml::table& t, const std::string& section, RunConfig& config) {
     check_keys(t, section);
+    config.sources.table_lines[section] = line_of(t);
     for (const ConfigKey& key : schema_.keys)
       if (key.section == section)
-        if (const auto* node = t.get(key.name)) key.read(read_.add(*this, key, *node), config);
+        if (const auto* node = t.get(key.name)) {
+          config.sources.key_lines[{section, key.name}] = line_of(*node);
+          key.read(read_.add(*this, key, *node), config);
+        }
+  }
+  // 0 for what apply_override put there.
+  static int line_of(const toml::node& node) {
+    return node.source().path ? static_cast<int>(node.source().begin.line) : 0;
   }
 
   // The rules between keys, each reported at the line of the key that breaks it: [system]'s, then
@@ -389,6 +398,15 @@ class ConfigReader {
 };
 
 }  // namespace
+
+InputError RunConfig::locate(const SettingError& e) const {
+  const std::string what = "[" + e.section() + "] " + e.key() + ": " + e.problem();
+  if (const auto key = sources.key_lines.find({e.section(), e.key()}); key != sources.key_lines.end())
+    return key->second > 0 ? InputError(file.string(), key->second, e.problem())
+                           : InputError(ConfigReader::kOverrides, 0, what);
+  const auto table = sources.table_lines.find(e.section());
+  return InputError(file.string(), table == sources.table_lines.end() ? 0 : table->second, what);
+}
 
 RunConfig read_config(const fs::path& file, const ConfigSchema& schema, const ConfigOverrides& overrides) {
   std::error_code ec;

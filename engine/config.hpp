@@ -13,6 +13,8 @@
 #include <variant>
 #include <vector>
 
+#include "engine/errors.hpp"
+
 namespace vimd {
 
 // A user Butcher tableau as given in TOML; checked when the integrator is built.
@@ -60,6 +62,14 @@ class ComponentSettings {
   std::map<std::type_index, std::any> blocks_;
 };
 
+// Where the run file gave each key and table, for the errors found after reading
+// (RunConfig::locate).
+struct SettingSources {
+  // 0: given next to the file (ConfigOverrides), which has no line.
+  std::map<std::pair<std::string, std::string>, int> key_lines;  // (section, key)
+  std::map<std::string, int> table_lines;                         // section
+};
+
 struct RunConfig {
   std::filesystem::path file;  // the TOML file itself
   std::filesystem::path structure, topology;
@@ -67,10 +77,28 @@ struct RunConfig {
   DynamicsConfig dynamics;
   OutputConfig output;
   ComponentSettings components;
+  SettingSources sources;
+
+  // The error at the FILE:LINE of the key (of its table when the key was left at its default; the
+  // file when neither is in it), or naming the settings given next to the file.
+  InputError locate(const SettingError& e) const;
+  // f(), with a SettingError it throws located: the one place run-file settings checked after
+  // reading get their FILE:LINE.
+  template <class F>
+  decltype(auto) located(F&& f) const;
 };
 
 // Settings given next to the file (e.g. keyword arguments in Python): each key is looked up in the
 // tables of the TOML schema and checked exactly as if the file had it; a tableau implies method = "user".
+template <class F>
+decltype(auto) RunConfig::located(F&& f) const {
+  try {
+    return f();
+  } catch (const SettingError& e) {
+    throw locate(e);
+  }
+}
+
 using ConfigValue = std::variant<bool, long, double, std::string, std::vector<double>, TableauConfig>;
 using ConfigOverrides = std::vector<std::pair<std::string, ConfigValue>>;
 

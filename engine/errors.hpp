@@ -9,9 +9,10 @@ namespace vimd {
 class InputError : public std::runtime_error {
  public:
   InputError(std::string file, int line, const std::string& problem)
-      : std::runtime_error(location(file, line) + problem), file_(std::move(file)), line_(line) {}
+      : std::runtime_error(location(file, line) + problem), file_(std::move(file)), line_(line), problem_(problem) {}
   const std::string& file() const { return file_; }
   int line() const { return line_; }  // 0 when the problem is not tied to one line
+  const std::string& problem() const { return problem_; }  // the message without its location
 
  private:
   static std::string location(const std::string& file, int line) {
@@ -21,6 +22,21 @@ class InputError : public std::runtime_error {
   }
   std::string file_;
   int line_;
+  std::string problem_;
+};
+
+// A run-file setting found wrong where a component is built from the settings (or checked against
+// the system), which knows the key but not where the file gave it. RunConfig::locate turns it
+// into an InputError at the key's FILE:LINE; unlocated, it names the table.
+class SettingError : public InputError {
+ public:
+  SettingError(std::string section, std::string key, const std::string& problem)
+      : InputError("[" + section + "]", 0, problem), section_(std::move(section)), key_(std::move(key)) {}
+  const std::string& section() const { return section_; }
+  const std::string& key() const { return key_; }
+
+ private:
+  std::string section_, key_;
 };
 
 class ConvergenceError : public std::runtime_error {

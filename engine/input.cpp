@@ -35,9 +35,9 @@ Coords maxwell_boltzmann_velocities(const System& system, double temperature, st
 
 void require_velocities(const RunInput& input) {
   if (input.state.v.cols() == input.state.q.cols()) return;
-  throw InputError(input.config.file.string(), 0,
-                   input.config.structure.string() +
-                       " has no velocities: set [integrator] temperature to generate them (a run needs them)");
+  throw SettingError("integrator", "temperature",
+                     input.config.structure.string() +
+                         " has no velocities: set [integrator] temperature to generate them (a run needs them)");
 }
 
 void scale_to_temperature(const System& system, double temperature, Coords& v) {
@@ -115,10 +115,10 @@ BondConstraints bond_constraints(const RunConfig& c) {
 void check_hydrogens(const System& s, const RunConfig& c) {
   if (c.constraints != "h-bonds") return;
   if (std::any_of(s.atom_names.begin(), s.atom_names.end(), hydrogen_like)) return;
-  throw InputError(c.file.string(), 0,
-                   "[system] constraints = \"h-bonds\", but no atom of " + c.topology.string() +
-                       " is a hydrogen (grompp's rule: an atom name starting with H), so no bond would become a "
-                       "constraint: use \"all-bonds\" or \"none\"");
+  throw SettingError("system", "constraints",
+                     "[system] constraints = \"h-bonds\", but no atom of " + c.topology.string() +
+                         " is a hydrogen (grompp's rule: an atom name starting with H), so no bond would become a "
+                         "constraint: use \"all-bonds\" or \"none\"");
 }
 
 }  // namespace
@@ -176,14 +176,16 @@ RunInput read_run_input(const std::filesystem::path& config_file, const ConfigSc
   RunInput in;
   in.config = read_config(config_file, schema, overrides);
   const RunConfig& c = in.config;
-  in.system = read_topology(c.topology, bond_constraints(c));
-  check_hydrogens(in.system, c);
+  in.system = read_topology(c.topology, bond_constraints(c), &in.warnings);
   GroFrame frame = read_gro(c.structure);
-
-  in.warnings = apply_structure(in.system, frame, c.structure, c.topology);
-  if (check)
-    for (auto& warning : check(c, in.system, frame.box, static_cast<int>(frame.x.cols()) + 3))
+  c.located([&] {
+    check_hydrogens(in.system, c);
+    for (auto& warning : apply_structure(in.system, frame, c.structure, c.topology))
       in.warnings.push_back(std::move(warning));
+    if (check)
+      for (auto& warning : check(c, in.system, frame.box, static_cast<int>(frame.x.cols()) + 3))
+        in.warnings.push_back(std::move(warning));
+  });
   check_overlaps(in.system, frame.x, frame.box, c.structure);
   if (auto warning = time_step_warning(in.system, c)) in.warnings.push_back(std::move(*warning));
 

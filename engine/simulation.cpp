@@ -125,7 +125,8 @@ RunTotals Simulation::run(State& state, long steps) {
   work0_ = problem_.force_field.work();
   // A later run continues the same state: constrained and set up already.
   if (!initialized_) {
-    constrain_start(problem_, state);
+    const StartReport start = constrain_start(problem_, state);
+    if (start_report_) start_report_(start);
     problem_.force_field.place_sites(state.q, state.v);
     integrator_.init(problem_, state);
     initialized_ = true;

@@ -3,6 +3,7 @@
 // summary) see samples of it. Nothing else in the code base loops over time steps.
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "engine/checkpoint.hpp"
 #include "engine/errors.hpp"
 #include "engine/integrator.hpp"
+#include "engine/start_state.hpp"
 
 namespace vimd {
 
@@ -96,6 +98,8 @@ class Simulation {
   Simulation(Problem& problem, Integrator& integrator, double dt);
   void add_observer(std::unique_ptr<Observer> observer);
   void set_checkpoints(CheckpointPolicy policy) { checkpoints_ = std::move(policy); }
+  // Told how far the first run's constrain_start moved the state read (once, before any step).
+  void on_start_constrained(std::function<void(const StartReport&)> report) { start_report_ = std::move(report); }
   // On the first run only (a later run continues the same state): constrain the start
   // (constrain_start) and init() the integrator. Then step `steps` times, or fewer when a step
   // reports finished. Throws what the integrator throws (ConvergenceError) or BlowUpError, after
@@ -118,6 +122,7 @@ class Simulation {
   Integrator& integrator_;
   double dt_;
   bool initialized_ = false;
+  std::function<void(const StartReport&)> start_report_;
   std::vector<std::unique_ptr<Observer>> observers_;
   CheckpointPolicy checkpoints_;
   WorkCounters work0_;  // the force field's work counters when this process's run started

@@ -1,6 +1,7 @@
 #include "engine/start_state.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "engine/errors.hpp"
 
@@ -36,7 +37,7 @@ StartReport constrain_start(const Problem& problem, State& state) {
       throw ConvergenceError("start state (closest point on the constraints)", state.step, report.iterations, change,
                              "the positions read are too far from the constraint lengths");
   }
-  report.position_change = max_column_norm(x - y);
+  if (x.cols() > 0) report.position_change = (x - y).colwise().norm().maxCoeff(&report.moved_atom);
   state.q = x;
   if (state.v.cols() == state.q.cols()) {
     const Coords v0 = state.v;
@@ -44,6 +45,18 @@ StartReport constrain_start(const Problem& problem, State& state) {
     report.velocity_change = max_column_norm(state.v - v0);
   }
   return report;
+}
+
+std::string describe_start_change(const StartReport& report, const System& system) {
+  char text[200];
+  std::snprintf(text, sizeof text, "positions by up to %.3g nm", report.position_change);
+  std::string out = text;
+  if (report.moved_atom >= 0 && report.position_change > 0) {
+    const int i = report.moved_atom;
+    out += " (atom " + std::to_string(i + 1) + ", " + std::to_string(system.residue_numbers[i]) +
+           system.residue_names[i] + " " + system.atom_names[i] + ")";
+  }
+  return out;
 }
 
 const char* start_state_description() {

@@ -42,6 +42,129 @@ int even_row(int length) { return length + length % 2; }
 
 }  // namespace
 
+double ewald_mesh_bytes(const std::array<double, 3>& n, int order, bool single_precision, int threads) {
+  const double row = n[2] + spline_stride(order) - 1 + 1;  // even_row's bound
+  const double half_complex = n[0] * n[1] * (std::floor(n[2] / 2) + 1);
+  const double real = single_precision ? sizeof(float) : sizeof(double);
+  const double transform_grid = real * (n[0] * n[1] * row + 2 * half_complex);
+  const double spreading = real * (n[0] + double(threads) * (order - 1)) * n[1] * row;
+  return sizeof(double) * half_complex + 2 * transform_grid + spreading;
+}
+
+namespace {
+
+// GROMACS's aliasing sums for one direction (gmx_pme_error.cpp: eps_poly1..4 and eps_self), for
+// the wave numbers m = −⌊K/2⌋..⌊K/2⌋ of a grid of K points and order p: with t_i = 2π (m/K + i),
+// S_k = Σ_{0<|i|≤6} t_i^(−k) and D = Σ_{|i|≤6} t_i^(−p),
+//   e1 = −S_p / D,  e2 = S_2p / D² + e1²,  e3 = 2π Σ i t_i^(−2p) / D²,  e4 = 4π² Σ i² t_i^(−2p) / D²,
+// and the self force's eps_self = Σ_{i≠0} sin(2π i u) a_i with a_i = −2πK i t_i^(−p) / D at the
+// charge's grid coordinate u (all 0 at m = 0). For odd p and even K, D vanishes at m = ±K/2 as the
+// moduli B do there, where the mesh takes its neighbours' (bspline_moduli): so do the sums.
+constexpr int kImages = 6;  // GROMACS's SUMORDER
+struct AliasingSums {
+  std::vector<double> e1, e2, e3, e4;
+  std::vector<std::array<double, kImages>> self;  // per m: a_i − a_−i for i = 1..6 (sin is odd)
+};
+AliasingSums aliasing_sums(int k_points, int p) {
+  const int half = k_points / 2;
+  AliasingSums a;
+  for (auto* e : {&a.e1, &a.e2, &a.e3, &a.e4}) e->assign(2 * half + 1, 0.0);
+  a.self.assign(2 * half + 1, {});
+  for (int m = -half; m <= half; ++m) {
+    if (m == 0 || (p % 2 == 1 && 2 * std::abs(m) == k_points)) continue;  // the latter below
+    double s_p = 0, s_2p = 0, s_i = 0, s_ii = 0;
+    std::array<double, 2 * kImages + 1> t_p{};
+    for (int i = -kImages; i <= kImages; ++i) {
+      t_p[i + kImages] = std::pow(2 * M_PI * (double(m) / k_points + i), -p);
+      if (i == 0) continue;
+      const double t_2p = t_p[i + kImages] * t_p[i + kImages];
+      s_p += t_p[i + kImages];
+      s_2p += t_2p;
+      s_i += i * t_2p;
+      s_ii += double(i) * i * t_2p;
+    }
+    const double d = t_p[kImages] + s_p;
+    const int k = m + half;
+    a.e1[k] = -s_p / d;
+    a.e2[k] = s_2p / (d * d) + a.e1[k] * a.e1[k];
+    a.e3[k] = 2 * M_PI * s_i / (d * d);
+    a.e4[k] = 4 * M_PI * M_PI * s_ii / (d * d);
+    for (int i = 1; i <= kImages; ++i)
+      a.self[k][i - 1] = -2 * M_PI * k_points * (i * t_p[kImages + i] + i * t_p[kImages - i]) / d;
+  }
+  if (p % 2 == 1 && k_points % 2 == 0 && half > 1) {
+    for (auto* e : {&a.e1, &a.e2, &a.e3, &a.e4}) (*e)[0] = (*e)[1], (*e)[2 * half] = (*e)[2 * half - 1];
+    a.self[0] = a.self[1], a.self[2 * half] = a.self[2 * half - 1];
+  }
+  return a;
+}
+
+}  // namespace
+
+MeshForceError ewald_mesh_force_error(const Vec3& box, const std::array<int, 3>& n, int order, double beta,
+                                      double prefactor, double sum_q2, double sum_q4, int n_charges) {
+  if (n_charges == 0) return {0, 0};
+  // The sums over the wave vectors approximate integrals once a direction holds many of them:
+  // beyond kProxyPoints grid points, a box of that many at the same spacing gives the estimate (the
+  // first two terms, ∝ 1/√V at a given Σq² and N, scaled by its volume; the third does not depend
+  // on V) at a fraction of the cost, which would grow as the grid's size.
+  constexpr int kProxyPoints = 64;
+  if (*std::max_element(n.begin(), n.end()) > kProxyPoints) {
+    std::array<int, 3> proxy_n = n;
+    Vec3 proxy_box = box;
+    for (int d = 0; d < 3; ++d)
+      if (n[d] > kProxyPoints) proxy_n[d] = kProxyPoints, proxy_box[d] = box[d] * kProxyPoints / n[d];
+    MeshForceError e = ewald_mesh_force_error(proxy_box, proxy_n, order, beta, prefactor, sum_q2, sum_q4, n_charges);
+    e.pairs *= std::sqrt(proxy_box.prod() / box.prod());
+    return e;
+  }
+  std::array<AliasingSums, 3> sums;
+  std::array<int, 3> half{}, reach{};
+  for (int d = 0; d < 3; ++d) {
+    sums[d] = aliasing_sums(n[d], order);
+    half[d] = n[d] / 2;
+    // Beyond this wave number a direction's factor exp(−π² m_d²/β²) of every term is below 1e-20
+    // (1e-40 squared): the rest of the sum changes nothing (and a fine grid costs no more than it needs).
+    reach[d] = std::min(half[d], static_cast<int>(std::ceil(beta * box[d] * std::sqrt(20 * std::log(10.0)) / M_PI)));
+  }
+  const double volume = box[0] * box[1] * box[2];
+  double term1 = 0, term2 = 0;  // GROMACS's e_rec1, e_rec2 without their common factor (Σq²)²/N
+  std::array<std::array<double, kImages>, 3> self{};  // Σ_m e^(−π²m²/β²)/m² (a_i − a_−i) per direction
+  for (int x = -reach[0]; x <= reach[0]; ++x)
+    for (int y = -reach[1]; y <= reach[1]; ++y)
+      for (int z = -reach[2]; z <= reach[2]; ++z) {
+        if (x == 0 && y == 0 && z == 0) continue;
+        const std::array<int, 3> m{x, y, z};
+        Vec3 g;
+        double e1[3], e2[3], e3[3], e4[3];
+        for (int d = 0; d < 3; ++d) {
+          g[d] = m[d] / box[d];
+          const int k = m[d] + half[d];
+          e1[d] = sums[d].e1[k], e2[d] = sums[d].e2[k], e3[d] = sums[d].e3[k], e4[d] = sums[d].e4[k];
+        }
+        const double g2 = g.squaredNorm();
+        const double damping = std::exp(-M_PI * M_PI * g2 / (beta * beta)) / g2;
+        const double coeff = damping / (2 * M_PI * volume);
+        const double e1_sum = e1[0] + e1[1] + e1[2];
+        const double t1 = e2[0] + e2[1] + e2[2] + 2 * (e1[0] * e1[1] + e1[1] * e1[2] + e1[2] * e1[0]) + e1_sum * e1_sum;
+        term1 += 32 * M_PI * M_PI * coeff * coeff * g2 * t1;
+        double t2 = 0;
+        for (int d = 0; d < 3; ++d)
+          t2 += 4 * M_PI * e3[d] * n[d] * g[d] / box[d] + e4[d] * double(n[d]) * n[d] / (box[d] * box[d]);
+        term2 += 4 * coeff * coeff * t2;
+        for (int d = 0; d < 3; ++d)
+          for (int i = 0; i < kImages; ++i) self[d][i] += damping * sums[d].self[m[d] + half[d]][i];
+      }
+  // Term III, GROMACS's e_rec3 = <q⁴ |Σ_d r_d Σ_m e^(−π²m²/β²)/m² eps_self_d|²> / (π² V²), r_d the
+  // reciprocal box vectors: GROMACS averages it over (a sample of) the charges' positions; here over
+  // a position spread evenly in the grid cell, where <sin(2π i u) sin(2π j u)> = δ_ij / 2.
+  double self_force2 = 0;
+  for (int d = 0; d < 3; ++d)
+    for (int i = 0; i < kImages; ++i) self_force2 += 0.5 * self[d][i] * self[d][i] / (box[d] * box[d]);
+  const double term3 = sum_q4 / n_charges * self_force2 / (M_PI * M_PI * volume * volume);
+  return {prefactor * std::sqrt((term1 + term2) * sum_q2 * sum_q2 / n_charges), prefactor * std::sqrt(term3)};
+}
+
 struct EwaldMeshSetup {
   std::array<int, 3> n;
   int order;

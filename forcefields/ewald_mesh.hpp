@@ -17,6 +17,7 @@
 // Precision: double, or float grids and transforms (as GROMACS's mixed build) with mixed_precision
 // or TermEvaluation::single_precision; energies summed in double either way.
 #include <array>
+#include <cmath>
 #include <memory>
 #include <span>
 #include <string>
@@ -33,6 +34,24 @@ struct EwaldMeshParameters {
   double beta;              // Ewald splitting coefficient, nm⁻¹
   double prefactor;         // f/ε_r, kJ/mol nm e⁻² (f = kCoulomb)
 };
+
+// The memory one term's mesh takes, bytes, for a grid of n points (double: a grid too large for
+// int is measured before it is refused): the influence function (double), and in the given
+// precision the two transform grids (real and half complex each) and the threads' spreading slabs.
+double ewald_mesh_bytes(const std::array<double, 3>& n, int order, bool single_precision, int threads);
+
+// The mesh's RMS force error for charges spread evenly through the box, kJ/mol/nm, as GROMACS's
+// `gmx pme_error` estimates it (Wang et al., J. Chem. Phys. 132, 244106 (2010)), in two parts:
+// terms I and II, the other charges' fields, which grow as √(charge density) as the real space's
+// error does, and term III, each charge's force on itself, which does not (averaged over the
+// position in the grid cell, where GROMACS samples the charges' positions).
+struct MeshForceError {
+  double pairs, self;
+  double total() const { return std::hypot(pairs, self); }
+};
+// sum_q2 = Σ q², sum_q4 = Σ q⁴ over the n_charges charged atoms; prefactor f/ε_r.
+MeshForceError ewald_mesh_force_error(const Vec3& box, const std::array<int, 3>& n, int order, double beta,
+                                      double prefactor, double sum_q2, double sum_q4, int n_charges);
 
 // What every mesh of one term shares: grid, order, box, charges and the influence function.
 struct EwaldMeshSetup;

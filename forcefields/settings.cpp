@@ -77,7 +77,8 @@ void add_pme_keys(std::vector<ConfigKey>& k) {
                  std::string("PME: grid points along ") + "xyz"[d] + " (unset or 0: from fourier_spacing)",
                  [d, name](const KeyInput& in, RunConfig& c) {
                    const long n = in.integer();
-                   in.require(n >= 0 && n <= 4096, name + " must be between 0 and 4096");
+                   in.require(n >= 0 && n <= kMaxFourierPoints,
+                              name + " must be between 0 and " + std::to_string(kMaxFourierPoints));
                    forcefield_config(c).fourier_n[d] = static_cast<int>(n);
                  },
                  [d](const RunConfig& c) { return std::to_string(forcefield_config(c).fourier_n[d]); }});

@@ -15,6 +15,9 @@ namespace vimd {
 // PME's B-spline interpolation orders (pme_order), the one range the run file and the mesh accept.
 constexpr int kMinPmeOrder = 4;
 constexpr int kMaxPmeOrder = kMaxSplineOrder;
+// The most PME grid points along one direction, given (fourier_nx) or from fourier_spacing: 4096³
+// points would already take terabytes.
+constexpr int kMaxFourierPoints = 4096;
 
 struct ForceFieldConfig {
   double cutoff = 0.9;                          // nm, rvdw = rcoulomb

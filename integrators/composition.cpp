@@ -178,13 +178,14 @@ Composition resolve_composition(const IntegratorConfig& config) {
   if (config.composition == "none") return {"none", 2, {1.0}};
   if (config.composition == "user") {
     if (auto problem = composition_problem(config.composition_weights, config.composition_order); !problem.empty())
-      throw InputError("[integrator]", 0, "composition_weights: " + problem);
+      throw SettingError("integrator", "composition_weights", "composition_weights: " + problem);
     return {"user", config.composition_order, config.composition_weights};
   }
   try {
     return builtin_composition(config.composition);
   } catch (const std::out_of_range& e) {
-    throw InputError("[integrator]", 0, std::string(e.what()) + "; or composition = \"user\" with composition_weights");
+    throw SettingError("integrator", "composition",
+                       std::string(e.what()) + "; or composition = \"user\" with composition_weights");
   }
 }
 

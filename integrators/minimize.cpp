@@ -21,8 +21,8 @@ SteepestDescent::SteepestDescent(const IntegratorConfig& config)
       step_size_(config.emstep),
       tolerance_(config.constraint_tolerance),
       max_iterations_(config.max_iterations) {
-  if (!(emtol_ > 0)) throw InputError("[integrator]", 0, "emtol must be positive (kJ/mol/nm)");
-  if (!(step_size_ > 0)) throw InputError("[integrator]", 0, "emstep must be positive (nm)");
+  if (!(emtol_ > 0)) throw SettingError("integrator", "emtol", "emtol must be positive (kJ/mol/nm)");
+  if (!(step_size_ > 0)) throw SettingError("integrator", "emstep", "emstep must be positive (nm)");
   check_step_config(config);
   refuse_thermostat(config, "a minimisation has no temperature");
 }

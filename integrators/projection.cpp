@@ -25,7 +25,8 @@ void TangentProjector::apply(Coords& u, Eigen::VectorXd* mu) {
 
 void check_projection_kind(const std::string& kind) {
   if (kind != "euclidean" && kind != "mass")
-    throw InputError("[integrator]", 0, "projection must be \"euclidean\" or \"mass\", not \"" + kind + "\"");
+    throw SettingError("integrator", "projection",
+                       "projection must be \"euclidean\" or \"mass\", not \"" + kind + "\"");
 }
 
 Projection::Projection(const Constraints& constraints, const Eigen::VectorXd& inverse_mass, const std::string& kind)

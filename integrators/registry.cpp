@@ -39,7 +39,7 @@ std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
     if (config.type == e.name) return e.make(config);
   std::string valid;
   for (const Entry& e : kIntegrators) valid += std::string(valid.empty() ? "" : ", ") + "\"" + e.name + "\"";
-  throw InputError("[integrator]", 0, "unknown type \"" + config.type + "\"; valid types: " + valid);
+  throw SettingError("integrator", "type", "unknown type \"" + config.type + "\"; valid types: " + valid);
 }
 
 std::vector<std::string> integrator_names() {

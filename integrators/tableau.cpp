@@ -273,13 +273,16 @@ ButcherTableau tableau_from_config(const TableauConfig& config, const std::strin
 
 ButcherTableau resolve_tableau(const std::string& method, const IntegratorConfig& config, const std::string& file) {
   if (method == "user") {
-    if (!config.tableau) throw InputError(file, 0, "method = \"user\" needs an [integrator.tableau] table with a, b, c, order");
+    if (!config.tableau)
+      throw SettingError("integrator", "method",
+                         "method = \"user\" needs an [integrator.tableau] table with a, b, c, order");
     return tableau_from_config(*config.tableau, file);
   }
   try {
     return builtin_tableau(method);
   } catch (const std::out_of_range& e) {
-    throw InputError(file, 0, std::string(e.what()) + "; or method = \"user\" with [integrator.tableau]");
+    throw SettingError("integrator", "method",
+                       std::string(e.what()) + "; or method = \"user\" with [integrator.tableau]");
   }
 }
 

@@ -102,18 +102,20 @@ void VRescaleThermostat::apply(const Eigen::VectorXd& mass, int dof, Coords& v) 
 std::optional<VRescaleThermostat> make_thermostat(const IntegratorConfig& config) {
   if (config.thermostat == "none") return std::nullopt;
   if (config.thermostat != "v-rescale")
-    throw InputError("[integrator]", 0, "thermostat = \"" + config.thermostat + "\" is not supported (none, v-rescale)");
+    throw SettingError("integrator", "thermostat",
+                       "thermostat = \"" + config.thermostat + "\" is not supported (none, v-rescale)");
   if (!config.temperature)
-    throw InputError("[integrator]", 0, "thermostat = \"v-rescale\" needs the reference temperature (K)");
-  if (!(*config.temperature > 0)) throw InputError("[integrator]", 0, "thermostat temperature must be positive (K)");
-  if (!(config.tau_t >= 0)) throw InputError("[integrator]", 0, "tau_t must not be negative (ps)");
+    throw SettingError("integrator", "temperature", "thermostat = \"v-rescale\" needs the reference temperature (K)");
+  if (!(*config.temperature > 0))
+    throw SettingError("integrator", "temperature", "thermostat temperature must be positive (K)");
+  if (!(config.tau_t >= 0)) throw SettingError("integrator", "tau_t", "tau_t must not be negative (ps)");
   return VRescaleThermostat(*config.temperature, config.tau_t, config.dt, config.seed);
 }
 
 void refuse_thermostat(const IntegratorConfig& config, const std::string& why) {
   if (config.thermostat != "none")
-    throw InputError("[integrator]", 0,
-                     "type = \"" + config.type + "\" cannot use thermostat = \"" + config.thermostat + "\": " + why);
+    throw SettingError("integrator", "thermostat",
+                       "type = \"" + config.type + "\" cannot use thermostat = \"" + config.thermostat + "\": " + why);
 }
 
 }  // namespace vimd

@@ -37,7 +37,8 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
                     "momentum-conserving discrete dynamics they exist for); equilibrate with type = \"rattle\" and "
                     "thermostat = \"v-rescale\", then continue from its confout.gro with type = \"vi\"");
   if (config.solver_tolerance && !(*config.solver_tolerance > 0))
-    throw InputError(file, 0, "solver_tolerance must be positive (nm/ps), got " + format_tolerance(*config.solver_tolerance));
+    throw SettingError("integrator", "solver_tolerance",
+                       "solver_tolerance must be positive (nm/ps), got " + format_tolerance(*config.solver_tolerance));
   VariationalSettings s;
   s.plus = resolve_tableau(config.method, config, file);
   s.minus = config.method_minus ? resolve_tableau(*config.method_minus, config, file) : s.plus;
@@ -46,9 +47,9 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
   s.alpha_plus = config.bias[1];
   if (!(s.alpha_minus >= -1 && s.alpha_minus <= 0 && s.alpha_plus >= 0 && s.alpha_plus <= 1) ||
       std::abs(s.alpha_plus - s.alpha_minus - 1) > 1e-12)
-    throw InputError(file, 0,
-                     "bias = [" + std::to_string(s.alpha_minus) + ", " + std::to_string(s.alpha_plus) +
-                         "] must satisfy -1 <= alpha_minus <= 0 <= alpha_plus <= 1 and alpha_plus - alpha_minus = 1");
+    throw SettingError("integrator", "bias",
+                       "bias = [" + std::to_string(s.alpha_minus) + ", " + std::to_string(s.alpha_plus) +
+                           "] must satisfy -1 <= alpha_minus <= 0 <= alpha_plus <= 1 and alpha_plus - alpha_minus = 1");
   check_projection_kind(config.projection);
   s.projection = config.projection;
   s.tolerance = config.solver_tolerance ? *config.solver_tolerance : default_solver_tolerance(s.alpha_minus);
@@ -57,9 +58,11 @@ VariationalSettings VariationalSettings::from_config(const IntegratorConfig& con
   if (config.acceleration == "anderson")
     s.anderson_depth = 4;
   else if (config.acceleration != "none")
-    throw InputError(file, 0, "acceleration must be \"none\" or \"anderson\", not \"" + config.acceleration + "\"");
+    throw SettingError("integrator", "acceleration",
+                       "acceleration must be \"none\" or \"anderson\", not \"" + config.acceleration + "\"");
   if (config.solver_precision != "mixed" && config.solver_precision != "double")
-    throw InputError(file, 0, "solver_precision must be \"mixed\" or \"double\", not \"" + config.solver_precision + "\"");
+    throw SettingError("integrator", "solver_precision",
+                       "solver_precision must be \"mixed\" or \"double\", not \"" + config.solver_precision + "\"");
   s.mixed_precision_solve = config.solver_precision == "mixed";
   return s;
 }

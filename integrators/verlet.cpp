@@ -61,14 +61,14 @@ std::string number(double x) {
 
 void check_step_config(const IntegratorConfig& config) {
   if (!(config.dt > 0) || !std::isfinite(config.dt))
-    throw InputError("[integrator]", 0, "dt must be a positive time step in ps, got " + number(config.dt));
+    throw SettingError("integrator", "dt", "dt must be a positive time step in ps, got " + number(config.dt));
   if (!(config.constraint_tolerance > 0 && config.constraint_tolerance < 1))
-    throw InputError(
-        "[integrator]", 0,
+    throw SettingError(
+        "integrator", "constraint_tolerance",
         "constraint_tolerance is relative and must lie in (0, 1), got " + number(config.constraint_tolerance));
   if (config.max_iterations < 1)
-    throw InputError("[integrator]", 0,
-                     "max_iterations must be at least 1, got " + std::to_string(config.max_iterations));
+    throw SettingError("integrator", "max_iterations",
+                       "max_iterations must be at least 1, got " + std::to_string(config.max_iterations));
 }
 
 VelocityVerlet::VelocityVerlet(const IntegratorConfig& config) : ThermostattedIntegrator(config), dt_(config.dt) {
@@ -77,9 +77,9 @@ VelocityVerlet::VelocityVerlet(const IntegratorConfig& config) : ThermostattedIn
 
 void VelocityVerlet::init(Problem& problem, State& state) {
   if (!problem.constraints.empty())
-    throw InputError("[integrator]", 0,
-                     "type = \"verlet\" cannot keep the " + std::to_string(problem.constraints.size()) +
-                         " constraints of this system; use type = \"rattle\" (velocity Verlet with constraints)");
+    throw SettingError("integrator", "type",
+                       "type = \"verlet\" cannot keep the " + std::to_string(problem.constraints.size()) +
+                           " constraints of this system; use type = \"rattle\" (velocity Verlet with constraints)");
   check_start(problem, state);
   evaluate_forces(problem, state, forces_);
 }

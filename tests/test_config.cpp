@@ -167,6 +167,47 @@ TEST(Config, MalformedConfigsNameFileAndLine) {
 }
 
 // Non-ASCII text is refused only where the TOML parser cannot take it (see config.cpp).
+// A setting found wrong after reading (a component built from it, or checked against the system)
+// names the run file's line of the key, else of its table, else the settings given next to it.
+TEST(Config, SettingErrorsFoundLaterNameTheKeysLine) {
+  const fs::path file = kConfig / "full.toml";
+  const RunConfig c = read_config(file, run_schema());
+  const auto message = [&](const SettingError& e) {
+    try {
+      c.located([&] { throw e; });
+    } catch (const SettingError&) {
+      return std::string("not located");
+    } catch (const InputError& located) {
+      return std::string(located.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message(SettingError("integrator", "bias", "bad bias")),
+            file.string() + ":" + std::to_string(marked_line(file, "bias = ")) + ": bad bias");
+  // emtol is left at its default: the table's line, naming the key.
+  EXPECT_EQ(message(SettingError("integrator", "emtol", "bad emtol")),
+            file.string() + ":" + std::to_string(marked_line(file, "[integrator]")) +
+                ": [integrator] emtol: bad emtol");
+  const RunConfig given = read_config(file, run_schema(), {{"bias", std::vector<double>{0.0, 1.0}}});
+  try {
+    given.located([] { throw SettingError("integrator", "bias", "bad bias"); });
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "settings given with the config file: [integrator] bias: bad bias");
+  }
+  // A component's own check, through the integrator registry.
+  const fs::path weights = kData.parent_path() / "bad_inputs/composition_user_false_order/run.toml";
+  const RunConfig user = read_config(weights, run_schema());
+  try {
+    user.located([&] { make_integrator(integrator_config(user)); });
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string where = weights.string() + ":" + std::to_string(marked_line(weights, "composition_weights =")) +
+                              ": composition_weights: the weights claim order 6";
+    EXPECT_EQ(std::string(e.what()).rfind(where, 0), 0u) << e.what();
+  }
+}
+
 TEST(Config, NonAsciiTextInCommentsAndStringValuesIsRead) {
   const RunConfig c = read_config(kConfig / "non_ascii.toml", run_schema());
   EXPECT_EQ(c.output.dir, kConfig / "r\xc3\xa9sultats/\xe6\xb0\xb4");

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <random>
@@ -17,6 +18,7 @@
 #include "forcefields/bspline.hpp"
 #include "forcefields/ewald_mesh.hpp"
 #include "forcefields/ewald_mesh_kernels.hpp"
+#include "forcefields/nonbonded/ewald.hpp"
 #include "forcefields/nonbonded/nonbonded_kernels.hpp"
 #include "forcefields/settings.hpp"
 #include "test_ff_systems.hpp"
@@ -151,6 +153,68 @@ TEST(EwaldMesh, ConvergesToThePlainEwaldSum) {
   }
 }
 
+// GROMACS's estimate of the mesh's RMS force error (ewald_mesh_force_error, which `vimd check`
+// prints and the input check compares with ewald_rtol's promise) against the error measured: the
+// forces of the grid and order under test against a grid of order 12 at 0.04 nm, converged to 1e-9
+// (ConvergesToThePlainEwaldSum), from 0.1 % to 100 % of the force, over grids, orders and beta.
+// With the charges of a water-like system shuffled among its atoms (uncorrelated, as the estimate
+// assumes) it is within a factor of 1.6 (0.9-1.0, 0.67 for an odd order on an even grid); on the
+// water molecules themselves, whose charges partly cancel, it is high by up to 3.3 times and never
+// below half the error: within a factor of 4.
+TEST(EwaldMesh, ForceErrorEstimateTracksTheMeasuredError) {
+  const Vec3 box(2.5, 2.4, 2.6);
+  const auto [water, q] = testing::water_like_system(120, box, 5);
+  System shuffled = water;
+  struct Charges {
+    const System* system;
+    double low, high;  // the bounds of estimate / measured
+  };
+  std::shuffle(shuffled.charge.begin(), shuffled.charge.end(), std::mt19937_64(3));
+  struct Case {
+    std::array<int, 3> grid;
+    int order;
+    double beta;
+  };
+  const double beta_0_4 = 7.808533;  // erfc(β 0.4 nm) = 1e-5: coulomb_switch = 0.4 nm
+  const Case cases[] = {{{21, 20, 22}, 4, kBeta},    {{16, 16, 16}, 4, kBeta},    {{12, 12, 12}, 4, kBeta},
+                        {{21, 20, 22}, 5, kBeta},    {{21, 20, 22}, 6, kBeta},    {{21, 20, 22}, 4, beta_0_4},
+                        {{32, 30, 32}, 4, beta_0_4}, {{32, 30, 32}, 5, beta_0_4}, {{32, 32, 32}, 6, beta_0_4}};
+  for (const auto& [system, low, high] : {Charges{&shuffled, 1 / 1.6, 1.6}, Charges{&water, 0.25, 4.0}}) {
+    double sum_q2 = 0, sum_q4 = 0;
+    for (double x : system->charge) sum_q2 += x * x, sum_q4 += x * x * x * x;
+    const int n = system->n_atoms();
+    for (const Case& c : cases) {
+      EwaldMeshTerm term(*system, parameters(c.grid, c.order, c.beta), false);
+      EwaldMeshTerm reference(*system, parameters({64, 60, 64}, 12, c.beta), false);
+      const Coords error = evaluate(term, q).f - evaluate(reference, q).f;
+      const double measured = std::sqrt(error.colwise().squaredNorm().sum() / n);
+      const double estimate =
+          ewald_mesh_force_error(box, c.grid, c.order, c.beta, kCoulomb, sum_q2, sum_q4, n).total();
+      std::printf("%s grid %2d order %d beta %.3g: RMS force error %.3e kJ/mol/nm, estimate %.3e (ratio %.2f)\n",
+                  system == &water ? "water   " : "shuffled", c.grid[0], c.order, c.beta, measured, estimate,
+                  estimate / measured);
+      EXPECT_LT(estimate, high * measured) << "grid " << c.grid[0] << " order " << c.order << " beta " << c.beta;
+      EXPECT_GT(estimate, low * measured) << "grid " << c.grid[0] << " order " << c.order << " beta " << c.beta;
+    }
+  }
+}
+
+// Beyond 64 grid points a direction the estimate is taken on a box of 64 at the same spacing:
+// the sums there approximate the same integrals. Against the full sums of a box just below that.
+TEST(EwaldMesh, ForceErrorEstimateOfALargeGridFromASmallerBox) {
+  const double sum_q2 = 400, sum_q4 = 300;
+  const int n_charges = 1000;
+  for (int order : {4, 5, 8}) {
+    const MeshForceError full = ewald_mesh_force_error(Vec3(7.2, 7.2, 6.0), {60, 60, 50}, order, kBeta, kCoulomb,
+                                                       sum_q2, sum_q4, n_charges);
+    const MeshForceError proxied = ewald_mesh_force_error(Vec3(14.4, 14.4, 6.0), {120, 120, 50}, order, kBeta,
+                                                          kCoulomb, sum_q2, sum_q4, n_charges);
+    // Terms I and II fall as 1/√V at the same charges; term III does not depend on V.
+    EXPECT_NEAR(proxied.pairs * 2, full.pairs, 0.02 * full.pairs) << "order " << order;
+    EXPECT_NEAR(proxied.self, full.self, 0.02 * full.self) << "order " << order;
+  }
+}
+
 TEST(EwaldMesh, NetChargeTerm) {
   auto [system, q] = small_water();
   system.charge[1] = 0;  // one hydrogen uncharged: net charge −0.4238 e
@@ -194,6 +258,44 @@ TEST(EwaldMesh, RunFileAndMeshAcceptTheSamePmeOrders) {
     EXPECT_EQ(read, order >= kMinPmeOrder && order <= kMaxPmeOrder);
     EXPECT_EQ(built, read);
   }
+}
+
+// A grid from a tiny spacing or a huge box is refused before anything is allocated, with its size,
+// the memory it needs and the setting it comes from (a bad_alloc or a vector length error before).
+TEST(EwaldMesh, GridBeyondMemoryIsRefusedBeforeAllocation) {
+  ForceFieldConfig config;
+  config.coulomb = "pme";
+  Box box;
+  box.length = Vec3(6, 6, 6);
+  config.fourier_spacing = 1e-6;
+  try {
+    pme_grid_size(config, box);
+    ADD_FAILURE() << "no error";
+  } catch (const SettingError& e) {
+    EXPECT_EQ(e.key(), "fourier_spacing");
+    const std::string what = e.what();
+    EXPECT_NE(what.find("fourier_spacing = 1e-06 nm in a box of 6 x 6 x 6 nm asks for a PME grid of "
+                        "6000000 x 6000000 x 6000000 points, which needs 9.5e+06 PB; at most 4096 points"),
+              std::string::npos)
+        << what;
+  }
+  config.fourier_spacing = 0.12;
+  box.length = Vec3(1000, 1000, 1000);
+  EXPECT_THROW(pme_grid_size(config, box), SettingError);
+  // Within the points a direction may have, the machine's memory decides.
+  config.fourier_n = {kMaxFourierPoints, kMaxFourierPoints, kMaxFourierPoints};
+  try {
+    pme_grid_size(config, box);
+    ADD_FAILURE() << "no error";
+  } catch (const SettingError& e) {
+    EXPECT_EQ(e.key(), "fourier_nx");
+    EXPECT_NE(std::string(e.what()).find("of memory; this machine has"), std::string::npos) << e.what();
+  }
+  // The estimate counts what the mesh allocates: at 96³ in double with one thread, the two grids'
+  // real and complex parts, the spreading grid and the influence function.
+  const double n = 96, row = 96 + spline_stride(4) - 1 + 1, half = 96 * 96 * 49.0;
+  EXPECT_DOUBLE_EQ(ewald_mesh_bytes({n, n, n}, 4, false, 1),
+                   8 * half + 2 * 8 * (n * n * row + 2 * half) + 8 * (n + 3) * n * row);
 }
 
 TEST(EwaldMesh, ForcesAndHessianVectorMatchFiniteDifferences) {

@@ -286,6 +286,8 @@ TEST(Topology, MalformedInputsNameFileAndLine) {
       {"atoms_outside_molecule.top", "atoms_outside_molecule.top", "outside a [ moleculetype ]"},
       {"redefined_atomtype.top", "redefined_atomtype.top", "'CA' redefined with different parameters (first defined at"},
       {"too_few_fields.top", "too_few_fields.top", "expected at least 4"},
+      {"settles_extra_field.top", "settles_extra_field.top",
+       "settles takes OW funct doh dhh: found 3 parameters after the function type, expected 2"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.top);
@@ -376,6 +378,29 @@ TEST(Topology, PairsFromGenPairsPairTypesAndInlineWithFudgeQQ) {
   EXPECT_NEAR(s.pairs14[2].c6, c6_of(0.30, 0.40), 1e-18);  // inline
   EXPECT_NEAR(s.pairs14[2].c12, c12_of(0.30, 0.40), 1e-21);
   EXPECT_EQ(std::tie(s.pairs14[3].i, s.pairs14[3].j), std::make_tuple(7, 10));
+}
+
+// grompp 2022 takes no exclusions from [ settles ] (nrexcl counts along bonds and type-1
+// constraints only): three SPC/E waters without [ exclusions ] give gmx_d mdrun -rerun a Coulomb (SR)
+// of -2541.57 kJ/mol, with them -1.13; vimd reads the same topology the same way.
+TEST(Topology, SettlesGenerateNoExclusionsAsGrompp) {
+  ScopedEnv no_gmxlib("GMXLIB", "");
+  std::vector<std::string> warnings;
+  const System s = read_topology(kTop / "settles_no_exclusions.top", BondConstraints::none, &warnings);
+  ASSERT_EQ(s.n_atoms(), 6);
+  EXPECT_EQ(s.constraints.size(), 6u);
+  for (int i = 0; i < 6; ++i) EXPECT_TRUE(s.exclusions[i].empty()) << "atom " << i;
+  // Warned once for the molecule type, at the settles line.
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("settles_no_exclusions.top:11: the settled pairs 1-2, 1-3, 2-3 of molecule type 'W' are "
+                             "not in [ exclusions ]"),
+            std::string::npos)
+      << warnings[0];
+  // The standard water model lists them itself.
+  std::vector<std::string> none;
+  const System spce = read_topology(kTop / "spce_opls.top", BondConstraints::none, &none);
+  EXPECT_EQ(spce.exclusions[0], (std::vector<int>{1, 2}));
+  EXPECT_TRUE(none.empty());
 }
 
 TEST(Topology, NrexclThreeExcludesUpToThreeBondsAway) {

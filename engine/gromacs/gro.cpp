@@ -153,7 +153,11 @@ GroFrame read_gro(const std::filesystem::path& file) {
       lines.fail("this atom line has velocities (or other text after z) but the first atom line (line 3) has none: "
                  "give velocities on every atom line or on none");
     if (velocities) {
-      if (line.size() < v_start + 3 * width) lines.fail("no velocities on this atom line, but the first atom line has them");
+      if (line.size() < v_start + 3 * width)
+        lines.fail(i == 0 ? "the text after z, '" + std::string(trim(std::string_view(line).substr(v_start))) +
+                                "', is not three velocities of " + std::to_string(width) +
+                                " columns each: give velocities on every atom line or nothing after z"
+                          : "no velocities on this atom line, but the first atom line has them");
       frame.v->col(i) = read_triplet(line, v_start, width, "velocity", lines);
     }
   }

@@ -50,6 +50,24 @@ std::vector<std::vector<int>> molecule_exclusions(const MoleculeType& m) {
   return excluded;
 }
 
+// A settle's pairs interact unless [ exclusions ] lists them (settles are no chemical bonds for
+// nrexcl in grompp): as gmx mdrun computes it, but rarely meant.
+std::optional<std::string> settles_warning(const MoleculeType& m, const std::vector<std::vector<int>>& excluded) {
+  for (const auto& [o, where] : m.settles) {
+    const std::pair<int, int> pairs[] = {{o, o + 1}, {o, o + 2}, {o + 1, o + 2}};
+    std::string missing;
+    for (auto [i, j] : pairs)
+      if (!std::binary_search(excluded[i].begin(), excluded[i].end(), j))
+        missing += (missing.empty() ? "" : ", ") + std::to_string(i + 1) + "-" + std::to_string(j + 1);
+    if (!missing.empty())
+      return where.str() + ": the settled pairs " + missing + " of molecule type '" + m.name +
+             "' are not in [ exclusions ]: as in grompp, settles exclude nothing themselves, so these pairs " +
+             "interact (a constant Coulomb and LJ energy within the rigid molecule, as gmx mdrun computes it); " +
+             "GROMACS's water models list them under [ exclusions ]";
+  }
+  return std::nullopt;
+}
+
 // GROMACS renumbers the residues of single-residue molecules (water, ions) consecutively after
 // the highest residue number of the other molecules; multi-residue molecules keep theirs.
 int residue_count(const MoleculeType& m) {
@@ -158,7 +176,8 @@ void set_lennard_jones_tables(const UsedAtomTypes& used, const ForceFieldParamet
 }  // namespace
 
 System assemble_system(const std::vector<MoleculeType>& molecules, const std::vector<MoleculeCount>& counts,
-                       const ForceFieldParameters& parameters, const std::string& title) {
+                       const ForceFieldParameters& parameters, const std::string& title,
+                       std::vector<std::string>& warnings) {
   System system;
   system.title = title;
   std::size_t n = 0;
@@ -169,9 +188,13 @@ System assemble_system(const std::vector<MoleculeType>& molecules, const std::ve
   UsedAtomTypes used{std::vector<int>(parameters.atomtypes().size(), -1), {}};
   int next_residue = first_renumbered_residue(molecules, counts);
   int offset = 0, instance = 0;
+  std::vector<bool> warned(molecules.size(), false);
   for (const auto& mc : counts) {
     const MoleculeType& m = molecules[mc.type];
     const auto excluded = molecule_exclusions(m);
+    if (!warned[mc.type])
+      if (auto warning = settles_warning(m, excluded)) warnings.push_back(std::move(*warning));
+    warned[mc.type] = true;
     const auto sites = construction_order(m);
     const bool renumber = residue_count(m) <= 1;
     for (int copy = 0; copy < mc.count; ++copy, ++instance) {

@@ -11,7 +11,10 @@
 
 namespace vimd::top {
 
+// Appends to `warnings` what is runnable but likely unintended: a settle whose pairs are not in
+// [ exclusions ] (grompp, and so vimd, excludes them from nothing else).
 System assemble_system(const std::vector<MoleculeType>& molecules, const std::vector<MoleculeCount>& counts,
-                       const ForceFieldParameters& parameters, const std::string& title);
+                       const ForceFieldParameters& parameters, const std::string& title,
+                       std::vector<std::string>& warnings);
 
 }  // namespace vimd::top

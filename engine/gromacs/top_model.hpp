@@ -63,6 +63,7 @@ struct MoleculeType {
   std::vector<Constraint> constraints;
   int bonds_constrained = 0;  // of the constraints: bonds made rigid by the constraints option
   std::vector<Where> constraint_lines;  // per constraint: the [ constraints ] or [ settles ] line
+  std::vector<std::pair<int, Where>> settles;  // each settle's oxygen and line
   std::vector<std::pair<int, int>> chemical_bonds;  // the graph nrexcl counts along
   std::vector<std::pair<int, int>> explicit_exclusions;
   std::vector<SiteLine> sites;  // in file order

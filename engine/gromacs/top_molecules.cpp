@@ -228,9 +228,14 @@ void MoleculeTypeReader::constraint(const Fields& f) {
   if (func == 1) molecule.chemical_bonds.emplace_back(i, j);  // type 2 generates no exclusions
 }
 
-// A settle is rigid water: oxygen `ow`, hydrogens ow+1, ow+2; three distance constraints.
+// A settle is rigid water: oxygen `ow`, hydrogens ow+1, ow+2; three distance constraints. As in
+// grompp, it is no chemical bond: its pairs are excluded only by [ exclusions ] (GROMACS's water
+// models list them there); without, they interact (a constant energy in the rigid molecule).
 void MoleculeTypeReader::settle(const Fields& f) {
   f.require(4, "OW funct doh dhh");
+  if (f.size() > 4)
+    f.error("settles takes OW funct doh dhh: found " + std::to_string(f.size() - 2) +
+            " parameters after the function type, expected 2 (as grompp)");
   MoleculeType& molecule = molecules_.back();
   const int o = f.atom(0, molecule);
   if (f.integer(1, "funct") != 1) f.error("settles function type must be 1");
@@ -243,8 +248,7 @@ void MoleculeTypeReader::settle(const Fields& f) {
   molecule.constraints.push_back({o, o + 2, doh});
   molecule.constraints.push_back({o + 1, o + 2, dhh});
   molecule.constraint_lines.insert(molecule.constraint_lines.end(), 3, f.where());
-  molecule.chemical_bonds.emplace_back(o, o + 1);
-  molecule.chemical_bonds.emplace_back(o, o + 2);
+  molecule.settles.emplace_back(o, f.where());
 }
 
 void MoleculeTypeReader::exclusion(const Fields& f) {

@@ -115,8 +115,8 @@ const std::map<std::string, SectionInfo>& section_table() {
 
 class TopologyParser {
  public:
-  TopologyParser(const fs::path& top, BondConstraints bond_constraints)
-      : top_(top), pre_(top, gromacs_library_dirs()), molecules_(parameters_, bond_constraints) {}
+  TopologyParser(const fs::path& top, BondConstraints bond_constraints, std::vector<std::string>& warnings)
+      : top_(top), pre_(top, gromacs_library_dirs()), molecules_(parameters_, bond_constraints), warnings_(warnings) {}
 
   System parse() {
     LogicalLine line;
@@ -130,7 +130,7 @@ class TopologyParser {
       if (section_) data(line);
     }
     if (molecule_counts_.empty()) throw InputError(top_.string(), 0, "no molecules: the topology has no [ molecules ] entries");
-    return assemble_system(molecules_.molecules(), molecule_counts_, parameters_, title_);
+    return assemble_system(molecules_.molecules(), molecule_counts_, parameters_, title_, warnings_);
   }
 
  private:
@@ -215,6 +215,7 @@ class TopologyParser {
   std::vector<MoleculeCount> molecule_counts_;
   long total_atoms_ = 0;
   std::string title_;
+  std::vector<std::string>& warnings_;
 };
 
 }  // namespace
@@ -238,8 +239,9 @@ bool hydrogen_like(const std::string& atom_name) {
   return !atom_name.empty() && std::toupper(static_cast<unsigned char>(atom_name[0])) == 'H';
 }
 
-System read_topology(const fs::path& top, BondConstraints bond_constraints) {
-  return TopologyParser(top, bond_constraints).parse();
+System read_topology(const fs::path& top, BondConstraints bond_constraints, std::vector<std::string>* warnings) {
+  std::vector<std::string> ignored;
+  return TopologyParser(top, bond_constraints, warnings ? *warnings : ignored).parse();
 }
 
 }  // namespace vimd

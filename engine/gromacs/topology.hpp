@@ -19,7 +19,10 @@ enum class BondConstraints { none, h_bonds, all_bonds };
 // grompp's rule for a hydrogen (topshake.cpp): the atom's name starts with H or h.
 bool hydrogen_like(const std::string& atom_name);
 
-System read_topology(const std::filesystem::path& top, BondConstraints bond_constraints = BondConstraints::none);
+// Runnable but suspicious input (as grompp's warnings, each naming its file:line) is appended to
+// `warnings` when given.
+System read_topology(const std::filesystem::path& top, BondConstraints bond_constraints = BondConstraints::none,
+                     std::vector<std::string>* warnings = nullptr);
 
 // Directories searched for an #include after the including file's own directory: the
 // colon-separated $GMXLIB when set, else GROMACS's data directory /usr/share/gromacs/top.

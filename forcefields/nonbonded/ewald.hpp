@@ -15,6 +15,8 @@
 #include <string>
 
 #include "engine/box.hpp"
+#include "engine/system.hpp"
+#include "forcefields/ewald_mesh.hpp"
 #include "forcefields/nonbonded/pair_form.hpp"
 #include "forcefields/nonbonded/switch_function.hpp"
 
@@ -57,12 +59,29 @@ double ewald_beta(double r, double rtol);
 // start of the switch.
 double ewald_rtol_distance(const ForceFieldConfig& config);
 
+// The RMS force errors of PME's two parts, kJ/mol/nm, for the system's charges spread evenly
+// through the box, as GROMACS's `gmx pme_error` estimates them: the real space's at
+// r = ewald_rtol_distance (Kolafa and Perram 1992: 2 Σq² exp(−β² r²) / √(N r V) · f/ε_r), which is
+// what ewald_rtol promises, and the mesh's on `grid` (ewald_mesh_force_error).
+struct PmeForceErrors {
+  double real_space;
+  MeshForceError mesh;
+};
+PmeForceErrors pme_force_errors(const ForceFieldConfig& config, const System& system, const Box& box,
+                                const std::array<int, 3>& grid);
+
+// The setting the grid comes from: "fourier_spacing" when it sizes a direction, else "fourier_nx".
+std::string pme_grid_key(const ForceFieldConfig& config);
+
 // The mesh's grid points along x, y, z: fourier_nx/ny/nz where given, else the smallest size GROMACS
 // (grompp's calcFftGrid) picks for fourier_spacing, at least 2 (pme_order − 1) per dimension, as
-// GROMACS demands. Throws InputError for a given size below that minimum or a non-periodic box.
+// GROMACS demands. SettingError for a given size below that minimum, a non-periodic box, and a grid
+// of more than kMaxFourierPoints along a direction or more memory than the machine has
+// (ewald_mesh_bytes): checked before anything is allocated.
 std::array<int, 3> pme_grid_size(const ForceFieldConfig& config, const Box& box);
 
-// For vimd check: β and where it comes from, the grid, the order and the mesh's smoothness.
-std::string describe_pme(const ForceFieldConfig& config, const Box& box);
+// For vimd check: β and where it comes from, the grid, the order, the mesh's smoothness and the
+// estimated force errors of both parts for the system's charges.
+std::string describe_pme(const ForceFieldConfig& config, const System& system);
 
 }  // namespace vimd

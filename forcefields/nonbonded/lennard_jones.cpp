@@ -13,8 +13,8 @@ VdwModifier parse_vdw_modifier(const std::string& name) {
   if (name == "potential-shift") return VdwModifier::potential_shift;
   if (name == "force-switch") return VdwModifier::force_switch;
   if (name == "potential-switch") return VdwModifier::potential_switch;
-  throw InputError(
-      "[forcefield]", 0,
+  throw SettingError(
+      "forcefield", "vdw_modifier",
       "unknown vdw_modifier '" + name + "' (expected none, potential-shift, force-switch or potential-switch)");
 }
 
@@ -36,7 +36,7 @@ LjConstants make_lj_constants(VdwModifier modifier, double cutoff, double r_swit
         std::ostringstream msg;
         msg << "vdw_switch (" << r_switch << " nm) must lie in [0, cutoff = " << rc
             << " nm) for the switched modifiers";
-        throw InputError("[forcefield]", 0, msg.str());
+        throw SettingError("forcefield", "vdw_switch", msg.str());
       }
       k.r_switch = r_switch;
       const double w = rc - r_switch;

@@ -69,8 +69,8 @@ NeighborList::NeighborList(const Box& box, double cutoff, double skin, std::vect
       excluded_atoms_.insert(excluded_atoms_.end(), exclusions[a].begin(), exclusions[a].end());
     }
   }
-  if (!(cutoff > 0)) throw InputError("[forcefield]", 0, "cutoff must be positive");
-  if (!(skin >= 0)) throw InputError("[forcefield]", 0, "neighbor_skin must not be negative");
+  if (!(cutoff > 0)) throw SettingError("forcefield", "cutoff", "cutoff must be positive");
+  if (!(skin >= 0)) throw SettingError("forcefield", "neighbor_skin", "neighbor_skin must not be negative");
   const double list_range = cutoff + skin;
   static const char* axis = "xyz";
   for (int k = 0; k < 3; ++k) {
@@ -246,9 +246,9 @@ void NeighborList::assign_slots(const std::vector<int>& sorted, const std::vecto
   }
   n_clusters_ = column_cluster_start_[n_columns];
   if (n_clusters_ >= (1 << Entry::kClusterBits))
-    throw InputError("[system]", 0,
-                     std::to_string(n) + " atoms need " + std::to_string(n_clusters_) + " pair-list clusters; at most " +
-                         std::to_string((1 << Entry::kClusterBits) - 1) + " fit the list's entries");
+    throw SettingError("system", "structure",
+                       std::to_string(n) + " atoms need " + std::to_string(n_clusters_) + " pair-list clusters; at most " +
+                           std::to_string((1 << Entry::kClusterBits) - 1) + " fit the list's entries");
   slot_atom_.assign(static_cast<std::size_t>(n_clusters_) * kCluster, -1);
   atom_slot_.assign(n, -1);
   for (int c = 0; c < n_columns; ++c) {

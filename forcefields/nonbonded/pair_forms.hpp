@@ -28,7 +28,7 @@ struct PairFormConstantsOf<PairFormList<V...>, PairFormList<C...>> {
   static type from_config(const ForceFieldConfig& config) {
     type forms{V::from_config(config)..., C::from_config(config)...};
     if (config.coulomb != "none" && !(std::get<C>(forms).present() || ...))
-      throw InputError("[forcefield]", 0, "unknown coulomb '" + config.coulomb + "'");
+      throw SettingError("forcefield", "coulomb", "unknown coulomb '" + config.coulomb + "'");
     return forms;
   }
 };

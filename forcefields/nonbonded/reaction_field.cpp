@@ -12,16 +12,18 @@ ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, 
                                   const std::string& modifier, double r_switch, int smoothness) {
   ReactionField rf;
   if (modifier != "none" && modifier != "potential-shift" && modifier != "potential-switch")
-    throw InputError("[forcefield]", 0,
-                     "unknown coulomb_modifier '" + modifier + "' (expected none, potential-shift or potential-switch)");
+    throw SettingError("forcefield", "coulomb_modifier",
+                       "unknown coulomb_modifier '" + modifier + "' (expected none, potential-shift or potential-switch)");
   if (coulomb == "none") {
     if (modifier == "potential-switch")
-      throw InputError("[forcefield]", 0, "coulomb_modifier = \"" + modifier + "\" needs a Coulomb interaction (coulomb is none)");
+      throw SettingError("forcefield", "coulomb_modifier",
+                         "coulomb_modifier = \"" + modifier + "\" needs a Coulomb interaction (coulomb is none)");
     return rf;
   }
   if (coulomb != "reaction-field" && coulomb != "cutoff")
-    throw InputError("[forcefield]", 0, "unknown coulomb '" + coulomb + "' (expected reaction-field, cutoff or none)");
-  if (!(epsilon_r > 0)) throw InputError("[forcefield]", 0, "epsilon_r must be positive");
+    throw SettingError("forcefield", "coulomb",
+                       "unknown coulomb '" + coulomb + "' (expected reaction-field, cutoff or none)");
+  if (!(epsilon_r > 0)) throw SettingError("forcefield", "epsilon_r", "epsilon_r must be positive");
   rf.kind = CoulombKind::reaction_field;
   rf.prefactor = kCoulomb / epsilon_r;
   const double rc3 = cutoff * cutoff * cutoff;
@@ -30,7 +32,8 @@ ReactionField make_reaction_field(const std::string& coulomb, double epsilon_r, 
   } else if (epsilon_rf == 0) {  // eps_rf = ∞ (conducting boundary)
     rf.k_rf = 1 / (2 * rc3);
   } else {
-    if (!(epsilon_rf > 0)) throw InputError("[forcefield]", 0, "epsilon_rf must be positive, or 0 for infinity");
+    if (!(epsilon_rf > 0))
+      throw SettingError("forcefield", "epsilon_rf", "epsilon_rf must be positive, or 0 for infinity");
     rf.k_rf = (epsilon_rf - epsilon_r) / ((2 * epsilon_rf + epsilon_r) * rc3);
   }
   // GROMACS shifts reaction field always, a plain cut-off only with potential-shift.

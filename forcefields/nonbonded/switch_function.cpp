@@ -19,12 +19,12 @@ SwitchFunction make_switch_function(double r_switch, double cutoff, int smoothne
   if (!(r_switch >= 0 && r_switch < cutoff)) {
     std::ostringstream msg;
     msg << what << " (" << r_switch << " nm) must lie in [0, cutoff = " << cutoff << " nm) for a switched potential";
-    throw InputError("[forcefield]", 0, msg.str());
+    throw SettingError("forcefield", what, msg.str());
   }
   if (smoothness < SwitchFunction::kMinSmoothness || smoothness > SwitchFunction::kMaxSmoothness)
-    throw InputError("[forcefield]", 0,
-                     "switch_smoothness must be between " + std::to_string(SwitchFunction::kMinSmoothness) + " and " +
-                         std::to_string(SwitchFunction::kMaxSmoothness) + ", got " + std::to_string(smoothness));
+    throw SettingError("forcefield", "switch_smoothness",
+                       "switch_smoothness must be between " + std::to_string(SwitchFunction::kMinSmoothness) + " and " +
+                           std::to_string(SwitchFunction::kMaxSmoothness) + ", got " + std::to_string(smoothness));
   SwitchFunction sw;
   sw.smoothness = smoothness;
   sw.r_switch = r_switch;
