@@ -75,7 +75,7 @@ void prepare_output_dir(const fs::path& dir, bool overwrite) {
   const bool written = f && std::fputs("vimd\n", f) >= 0 && std::fflush(f) == 0;
   const int write_errno = errno;
   if (f) std::fclose(f);
-  fs::remove(probe);
+  fs::remove(probe, error);  // never created when the path is too long: the error is the one above
   if (!written)
     throw InputError(dir.string(), 0, std::string("cannot write in the output directory: ") + std::strerror(write_errno));
   if (!overwrite) {
