@@ -2,12 +2,13 @@
 // exactly what the uninterrupted run writes, bit for bit, for RATTLE, SHAKE, the variational
 // integrator, RATTLE with the v-rescale thermostat and the minimiser, with 1 and 2 threads, on
 // SPC/E water216 (the neighbour list is rebuilt every few steps, so its build positions must be
-// part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint)
-// and refused checkpoints of another run.
+// part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint),
+// further stop signals while the stop's checkpoint is written, and refused checkpoints of another run.
 #include <gtest/gtest.h>
 #include <omp.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -200,6 +201,68 @@ TEST(StopAndContinue, AfterACrashBetweenCheckpoints) {
     e.simulation->resume(cp, kSteps, e.input.state);
   }
   expect_same_outputs(whole, split, "crash");
+}
+
+// Further SIGTERMs while the stop's checkpoint is being written (here: while the observers hand in
+// their part), `count` of them.
+class SignalsWhileCheckpointing : public Observer {
+ public:
+  explicit SignalsWhileCheckpointing(int count) : count_(count) {}
+  long every() const override { return 0; }
+  bool needs_sample() const override { return false; }
+  void observe(const RunInfo&, const State&, const Sample&) override {}
+  Carried checkpoint(const RunInfo&) override {
+    if (stop_signal() != 0)
+      for (int k = 0; k < count_; ++k) std::raise(SIGTERM);
+    return {};
+  }
+
+ private:
+  int count_;
+};
+
+class RealSignalAt : public Observer {
+ public:
+  explicit RealSignalAt(long step) : step_(step) {}
+  long every() const override { return 1; }
+  bool needs_sample() const override { return false; }
+  void observe(const RunInfo&, const State& state, const Sample&) override {
+    if (state.step == step_) std::raise(SIGTERM);
+  }
+
+ private:
+  long step_;
+};
+
+// A process that installs the stop handlers, gets a real SIGTERM after step 6 and `more` while the
+// stop's checkpoint is written; exits 0 if the run stopped there.
+void run_with_signals(const fs::path& dir, int more) {
+  install_stop_handlers();
+  Engine e("rattle", dir, 0);
+  e.simulation->add_observer(std::make_unique<RealSignalAt>(6));
+  e.simulation->add_observer(std::make_unique<SignalsWhileCheckpointing>(more));
+  const bool stopped = e.simulation->run(e.input.state, kSteps).stop_signal == SIGTERM && e.input.state.step == 6;
+  std::_Exit(stopped ? 0 : 1);
+}
+
+// A second SIGTERM (a scheduler's or a user's impatience) leaves the stop as it was: the checkpoint
+// is written, the run can continue. Before, it ended the process, leaving state.cpt.new only.
+TEST(StopAndContinue, ASecondSignalLeavesTheStopToFinish) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path dir = fresh_dir("second_signal");
+  EXPECT_EXIT(run_with_signals(dir, 1), ::testing::ExitedWithCode(0),
+              "a second SIGTERM: already stopping after this step, with a checkpoint to continue from");
+  EXPECT_EQ(read_checkpoint(dir / "state.cpt").state.step, 6);
+  EXPECT_FALSE(fs::exists(dir / "state.cpt.new"));
+}
+
+// A third ends the process at once, by the signal, saying what is lost.
+TEST(StopAndContinue, AThirdSignalEndsAtOnce) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path dir = fresh_dir("third_signal");
+  EXPECT_EXIT(run_with_signals(dir, 2), ::testing::KilledBySignal(SIGTERM),
+              "a third SIGTERM: ending now, without the stop's checkpoint");
+  EXPECT_FALSE(fs::exists(dir / "state.cpt"));
 }
 
 TEST(Checkpoint, IdentityMismatchNamesWhatDiffers) {
