@@ -2,8 +2,8 @@
 # A real SIGTERM to a running `vimd run`, then `--continue`: exit 143 with the command
 # that continues it, partial outputs and state.cpt kept; the continued run's outputs equal an
 # uninterrupted run's byte for byte (summary.json: all but wall-time fields). Also: a checkpoint of
-# another configuration is refused naming what differs, a finished run is neither continued nor
-# overwritten without --overwrite. Usage: stop_continue.sh VIMD_BINARY SOURCE_DIR WORK_DIR
+# another configuration or topology is refused naming what differs, a finished run is neither
+# continued nor overwritten without --overwrite. Usage: stop_continue.sh VIMD_BINARY SOURCE_DIR WORK_DIR
 set -uo pipefail
 vimd=$1 src=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
@@ -61,6 +61,25 @@ for setting in "switch_smoothness = 3" "coulomb_switch = 0.5" "coulomb_modifier 
     fail "continuing with $setting: exit $rc: $out"
   fi
 done
+# Nor a topology that resolves to other exclusions (the n-decane melt stopped, continued with nrexcl
+# 1 instead of 3): named as such.
+cp -r "$src/inputs/alkane" "$work/alkane"
+sed -i -e "s/^steps = .*/steps = 100000/" -e "s/^energy_every = .*/energy_every = 1/" "$work/alkane/run.toml"
+"$vimd" run "$work/alkane/run.toml" --out "$work/alkane/out" > /dev/null 2>&1 &
+alkane_pid=$!
+for _ in $(seq 600); do
+  [[ -f "$work/alkane/out/energy.csv.partial" && $(wc -l < "$work/alkane/out/energy.csv.partial") -gt 3 ]] && break
+  sleep 0.1
+done
+kill -TERM $alkane_pid
+wait $alkane_pid
+sed -i 's/^DEC 3$/DEC 1/' "$work/alkane/decane.itp"
+out=$("$vimd" run "$work/alkane/run.toml" --continue "$work/alkane/out" 2>&1); rc=$?
+if [[ $rc -eq 2 && "$out" == *"system: exclusions: "*" in the checkpoint, "*" here"* && "$out" != *"system: bonds"* ]]; then
+  ok "a topology with another nrexcl refused: ${out:0:240}..."
+else
+  fail "continuing with nrexcl 1 instead of 3: exit $rc: $out"
+fi
 # Nor may a new run silently replace the stopped one.
 out=$("$vimd" run "$work/run.toml" --out "$work/split" 2>&1); rc=$?
 [[ $rc -eq 2 && "$out" == *"holds a stopped run"* ]] && ok "a stopped run is not overwritten" || fail "new run over a stopped one: exit $rc: $out"

@@ -3,7 +3,8 @@
 // integrator, RATTLE with the v-rescale thermostat and the minimiser, with 1 and 2 threads, on
 // SPC/E water216 (the neighbour list is rebuilt every few steps, so its build positions must be
 // part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint),
-// further stop signals while the stop's checkpoint is written, and refused checkpoints of another run.
+// further stop signals while the stop's checkpoint is written, and refused checkpoints of another run
+// (also of a topology that resolves differently).
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -18,11 +19,13 @@
 
 #include "app/run_schema.hpp"
 #include "engine/checkpoint.hpp"
+#include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "engine/input.hpp"
 #include "engine/observers.hpp"
 #include "engine/simulation.hpp"
 #include "engine/stop.hpp"
+#include "engine/system_identity.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
@@ -277,6 +280,59 @@ TEST(Checkpoint, IdentityMismatchNamesWhatDiffers) {
     EXPECT_NE(what.find("[integrator] type: vi in the checkpoint, rattle here"), std::string::npos) << what;
     EXPECT_EQ(what.find("atoms"), std::string::npos) << what;
   }
+}
+
+// The n-decane melt read with its own nrexcl (3) and with nrexcl 1: the same atoms, bonds and
+// parameters, fewer exclusions. A continue across the change is refused, naming the exclusions.
+TEST(Checkpoint, IdentityCoversTheResolvedExclusions) {
+  const fs::path dir = fresh_dir("nrexcl");
+  for (const char* name : {"conf.gro", "topol.top", "decane.itp", "run.toml"})
+    fs::copy_file(fs::path(VIMD_SOURCE_DIR) / "inputs" / "alkane" / name, dir / name);
+  const RunInput as_shipped = read_run_input(dir / "run.toml", run_schema());
+  std::string itp = slurp(dir / "decane.itp");
+  const std::size_t at = itp.find("DEC 3\n");
+  ASSERT_NE(at, std::string::npos) << "decane.itp's [ moleculetype ] line changed";
+  itp.replace(at, 5, "DEC 1");
+  std::ofstream(dir / "decane.itp") << itp;
+  const RunInput fewer_exclusions = read_run_input(dir / "run.toml", run_schema());
+  const RunIdentity stored = run_identity(as_shipped.system, as_shipped.config, run_schema(), 10);
+  try {
+    check_identity("state.cpt", stored, run_identity(fewer_exclusions.system, fewer_exclusions.config, run_schema(), 10));
+    FAIL() << "a continue with nrexcl 1 instead of 3 was accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("system: exclusions: "), std::string::npos) << what;
+    EXPECT_EQ(what.find("system: bonds"), std::string::npos) << what;
+  }
+}
+
+// Each part of the system, changed alone, changes the identity under its own name.
+TEST(Checkpoint, IdentityNamesTheChangedPartOfTheSystem) {
+  const RunInput input = read_run_input(fs::path(VIMD_SOURCE_DIR) / "inputs" / "alkane" / "run.toml", run_schema());
+  const RunIdentity stored = system_identity(input.system);
+  const auto expect_named = [&](const std::string& part, const auto& change) {
+    System s = input.system;
+    change(s);
+    try {
+      check_identity("state.cpt", stored, system_identity(s));
+      ADD_FAILURE() << part << ": the change was not noticed";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("system: " + part + ": "), std::string::npos) << what;
+      EXPECT_EQ(what.find(';'), std::string::npos) << part << ": more than the part changed names: " << what;
+    }
+  };
+  expect_named("masses", [](System& s) { s.mass[7] *= 1.5; });
+  expect_named("charges", [](System& s) { std::swap(s.charge[0], s.charge[1]); });
+  expect_named("atom types and Lennard-Jones parameters", [](System& s) { s.c12(0, 0) *= 1.0000001; });
+  expect_named("bonds", [](System& s) { s.bonds[3].k += 1; });
+  expect_named("angles", [](System& s) { s.angles[3].theta0 += 1e-9; });
+  expect_named("dihedrals", [](System& s) { s.rb_dihedrals[2].c[5] += 1; });
+  expect_named("1-4 pairs", [](System& s) { s.pairs14[5].qq = -s.pairs14[5].qq; });
+  expect_named("constraints", [](System& s) { s.constraints.pop_back(); });
+  expect_named("exclusions", [](System& s) { std::swap(s.exclusions[0], s.exclusions[1]); });
+  expect_named("molecules", [](System& s) { s.molecule.back() += 1; });
+  expect_named("atom, residue and type names", [](System& s) { s.residue_names[0] = "XYZ"; });
 }
 
 // A checkpoint of n atoms at random positions, velocities and forces, at step 7, its integrator
