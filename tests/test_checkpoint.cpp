@@ -3,10 +3,12 @@
 // integrator, RATTLE with the v-rescale thermostat and the minimiser, with 1 and 2 threads, on
 // SPC/E water216 (the neighbour list is rebuilt every few steps, so its build positions must be
 // part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint),
-// further stop signals while the stop's checkpoint is written, and refused checkpoints of another run
-// (also of a topology that resolves differently).
+// further stop signals while the stop's checkpoint is written, refused checkpoints of another run
+// (also of a topology that resolves differently) and damaged ones, and the output directory's lock.
 #include <gtest/gtest.h>
 #include <omp.h>
+
+#include <unistd.h>
 
 #include <csignal>
 #include <cstdlib>
@@ -23,6 +25,7 @@
 #include "engine/errors.hpp"
 #include "engine/input.hpp"
 #include "engine/observers.hpp"
+#include "engine/output_lock.hpp"
 #include "engine/simulation.hpp"
 #include "engine/stop.hpp"
 #include "engine/system_identity.hpp"
@@ -76,7 +79,8 @@ struct Engine {
     simulation->add_observer(std::make_unique<TrajectoryWriter>(dir, 5));
     simulation->add_observer(std::make_unique<FinalStructureWriter>(dir));
     simulation->add_observer(std::make_unique<SummaryReporter>(dir, 1, sink()));
-    simulation->set_checkpoints({dir / "state.cpt", checkpoint_every, 900.0, {{"atoms", "648"}, {"type", type}}});
+    simulation->set_checkpoints(
+        {dir / "state.cpt", checkpoint_every, 900.0, {{"atoms", "648"}, {"type", type}}, {{0, {{"simd_target", "any"}}}}});
   }
   static std::FILE* sink() {
     static std::FILE* f = std::tmpfile();
@@ -364,6 +368,80 @@ TEST(Checkpoint, DamagedFilesAreInputErrors) {
     EXPECT_THROW(read_checkpoint(dir / "cut.cpt"), InputError) << keep;
   }
   EXPECT_THROW(read_checkpoint(dir / "missing.cpt"), InputError);
+}
+
+// Any one bit flipped anywhere (the header, the positions, the checksum itself) is refused, naming
+// the file and the checksum; before the checksum, a flip inside an array went unnoticed.
+TEST(Checkpoint, AFlippedBitIsRefused) {
+  const fs::path dir = fresh_dir("flipped");
+  write_checkpoint(dir / "state.cpt", random_checkpoint(5));
+  const std::string bytes = slurp(dir / "state.cpt");
+  for (std::size_t byte = 0; byte < bytes.size(); byte += 7) {
+    std::string damaged = bytes;
+    damaged[byte] = static_cast<char>(damaged[byte] ^ (1 << (byte % 8)));
+    std::ofstream(dir / "damaged.cpt", std::ios::binary) << damaged;
+    try {
+      read_checkpoint(dir / "damaged.cpt");
+      ADD_FAILURE() << "a bit flipped in byte " << byte << " of " << bytes.size() << " was not noticed";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("damaged.cpt"), std::string::npos) << what;
+      if (byte >= 8) {  // past the magic number
+        EXPECT_NE(what.find("checksum does not match"), std::string::npos) << what;
+      }
+    }
+  }
+}
+
+// Version 1 (no checksum): refused as such, not as damaged.
+TEST(Checkpoint, OneWithoutAChecksumIsRefused) {
+  const fs::path dir = fresh_dir("version1");
+  write_checkpoint(dir / "state.cpt", random_checkpoint(2));
+  std::string bytes = slurp(dir / "state.cpt");
+  bytes[7] = '1';
+  std::ofstream(dir / "old.cpt", std::ios::binary) << bytes.substr(0, bytes.size() - 8);
+  try {
+    read_checkpoint(dir / "old.cpt");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("older vimd, without a checksum"), std::string::npos) << e.what();
+  }
+}
+
+// Each segment's platform comes back: a continue compares the last one's SIMD target with its own.
+TEST(Checkpoint, SegmentsComeBack) {
+  const fs::path dir = fresh_dir("segments");
+  Checkpoint cp = random_checkpoint(2);
+  cp.segments = {{0, {{"simd_target", "SSE4"}, {"precision", "double"}}},
+                 {400, {{"simd_target", "AVX2"}, {"simd_change", "allowed by --allow-simd-change, from SSE4"}}}};
+  write_checkpoint(dir / "state.cpt", cp);
+  const Checkpoint back = read_checkpoint(dir / "state.cpt");
+  ASSERT_EQ(back.segments.size(), 2u);
+  EXPECT_EQ(back.segments[0].first_step, 0);
+  EXPECT_EQ(back.segments[0].platform, cp.segments[0].platform);
+  EXPECT_EQ(back.segments[1].first_step, 400);
+  EXPECT_EQ(back.segments[1].platform, cp.segments[1].platform);
+}
+
+// One run per output directory while it runs; the lock file goes with the run.
+TEST(OutputLock, ASecondRunIsRefusedNamingTheHolder) {
+  const fs::path dir = fresh_dir("lock");
+  {
+    const OutputLock first(dir);
+    try {
+      const OutputLock second(dir);
+      FAIL() << "a second lock on the same directory was granted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("another vimd run is writing into this directory (pid " + std::to_string(::getpid()) +
+                          " on host "),
+                std::string::npos)
+          << what;
+      EXPECT_NE(what.find(", started 20"), std::string::npos) << what;
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir / ".vimd.lock"));
+  EXPECT_NO_THROW(OutputLock again(dir));
 }
 
 // Arrays far larger than the writer's buffer, between small fields: every one comes back exactly.
