@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "app/model.hpp"
@@ -20,6 +21,7 @@
 #include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "engine/observers.hpp"
+#include "engine/output_lock.hpp"
 #include "engine/start_state.hpp"
 #include "engine/stop.hpp"
 #include "engine/thread_pinning.hpp"
@@ -54,10 +56,10 @@ std::string simd_description() {
 constexpr const char* kRunFiles[] = {"energy.xvg", "energy.csv", "traj.trr", "confout.gro", "summary.json",
                                      "state.cpt",  "last_good.gro"};
 
-// A directory to write a new run into: creatable, writable, and not holding a finished or stopped
-// run unless `overwrite`. Leftovers of a failed run (not resumable) are removed so they cannot pass
-// for this run's output.
-void prepare_output_dir(const fs::path& dir, bool overwrite) {
+// A directory to write a new run into: creatable, writable, not in use by another run (locked for
+// this one), and not holding a finished or stopped run unless `overwrite`. Leftovers of a failed
+// run (not resumable) are removed so they cannot pass for this run's output.
+OutputLock prepare_output_dir(const fs::path& dir, bool overwrite) {
   std::error_code error;
   fs::create_directories(dir, error);
   if (error || !fs::is_directory(dir)) {
@@ -75,9 +77,10 @@ void prepare_output_dir(const fs::path& dir, bool overwrite) {
   const bool written = f && std::fputs("vimd\n", f) >= 0 && std::fflush(f) == 0;
   const int write_errno = errno;
   if (f) std::fclose(f);
-  fs::remove(probe);
+  fs::remove(probe, error);  // never created when the path is too long: the error is the one above
   if (!written)
     throw InputError(dir.string(), 0, std::string("cannot write in the output directory: ") + std::strerror(write_errno));
+  OutputLock lock(dir);
   if (!overwrite) {
     if (fs::exists(dir / "summary.json"))
       throw InputError(dir.string(), 0,
@@ -93,12 +96,14 @@ void prepare_output_dir(const fs::path& dir, bool overwrite) {
     fs::remove(dir / (std::string(name) + ".partial"));
   }
   fs::remove(dir / "state.cpt.new");
+  return lock;
 }
 
 struct RunOptions {
   std::string out, continue_dir;
   long steps = -1;
   bool overwrite = false;
+  bool allow_simd_change = false;
   std::string pinning;  // ThreadPinning::description
 };
 
@@ -111,6 +116,31 @@ std::string continue_command(const fs::path& config_file, const fs::path& dir, l
 
 // The output directory of the run under way, for the message when it fails.
 fs::path run_dir;
+
+// The value of `what` among a platform's facts, or "".
+std::string fact(const Platform& platform, const std::string& what) {
+  for (const auto& [key, value] : platform)
+    if (key == what) return value;
+  return "";
+}
+
+// A continue must compute as the stopped segment (the last of `segments`) did to be bit-identical:
+// under its SIMD target, unless the user allows the change (which `here`, this segment's platform,
+// then records).
+void check_simd_target(const fs::path& checkpoint_file, const std::vector<RunSegment>& segments, Platform& here,
+                       bool allow_change) {
+  const Platform stopped = segments.empty() ? Platform{} : segments.back().platform;
+  const std::string before = segments.empty() ? "(not recorded)" : fact(stopped, "simd_target");
+  const std::string now = fact(here, "simd_target");
+  if (before == now) return;
+  if (!allow_change)
+    throw InputError(checkpoint_file.string(), 0,
+                     "the stopped run computed with the SIMD target " + before + " (" + fact(stopped, "simd_lanes") +
+                         " doubles per vector), this one would with " + now + " (" + fact(here, "simd_lanes") +
+                         "): the continued run would not be bit-identical to an uninterrupted one. Continue with --simd " +
+                         before + ", or pass --allow-simd-change to continue anyway (summary.json then records it)");
+  here.emplace_back("simd_change", "allowed by --allow-simd-change, from " + before);
+}
 
 int run_command(const fs::path& config_file, const RunOptions& options) {
   std::unique_ptr<Model> m = load_and_warn(config_file);
@@ -129,30 +159,37 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
   const long steps = config.dynamics.steps;
   const fs::path checkpoint_file = dir / "state.cpt";
   const RunIdentity identity = run_identity(system, config, run_schema(), summary_every(config));
+  Platform platform = platform_facts(config);
+  platform.emplace_back("pinned", options.pinning);
   Checkpoint checkpoint;
+  std::optional<OutputLock> lock;
   if (continuing) {
+    if (!fs::is_directory(dir))
+      throw InputError(dir.string(), 0, "no such directory: there is no stopped run to continue");
+    lock.emplace(dir);
     if (fs::exists(dir / "summary.json"))
       throw InputError(dir.string(), 0, "holds a finished run (summary.json): there is nothing to continue");
     checkpoint = read_checkpoint(checkpoint_file);
     check_identity(checkpoint_file, checkpoint.identity, identity);
+    check_simd_target(checkpoint_file, checkpoint.segments, platform, options.allow_simd_change);
     if (checkpoint.state.step >= checkpoint.first_step + steps)
       throw InputError(config.file.string(), 0,
                        "the run in " + dir.string() + " stopped at step " + std::to_string(checkpoint.state.step) +
                            ", which is not before the configured " + std::to_string(steps) + " steps");
   } else {
-    prepare_output_dir(dir, options.overwrite);
+    lock.emplace(prepare_output_dir(dir, options.overwrite));
   }
+  std::vector<RunSegment> segments = checkpoint.segments;
+  segments.push_back({continuing ? checkpoint.state.step : state.step, platform});
 
-  auto platform = platform_facts(config);
-  platform.emplace_back("pinned", options.pinning);
-  add_output_observers(run, config, dir, std::move(platform));
+  add_output_observers(run, config, dir, segments);
   run.simulation->add_observer(std::make_unique<ProgressReporter>(stderr));
   run.simulation->on_start_constrained([&](const StartReport& moved) {
     if (moved.position_change > 0)
       std::fprintf(stderr, "vimd: the start is constrained: this moves %s\n",
                    describe_start_change(moved, system).c_str());
   });
-  run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity});
+  run.simulation->set_checkpoints({checkpoint_file, config.output.checkpoint_every, 900.0, identity, segments});
 
   const int threads = omp_get_max_threads();
   std::printf("vimd run: %s, %d atoms, %s, dt = %g ps, %ld steps, %d thread%s (pinned: %s), SIMD %s, output in %s\n",
@@ -355,6 +392,9 @@ int main(int argc, char** argv) {
   run->add_option("--continue", run_options.continue_dir,
                   "continue the stopped run in this directory (from its state.cpt) up to the configured steps");
   run->add_flag("--overwrite", run_options.overwrite, "replace a finished or stopped run in the output directory");
+  run->add_flag("--allow-simd-change", run_options.allow_simd_change,
+                "with --continue: continue under another SIMD target than the stopped run's (not bit-identical to "
+                "an uninterrupted run; summary.json records each segment's target)");
   auto* energy = app.add_subcommand("energy", "single-point energy terms of the structure, kJ/mol");
   energy->add_option("config", config, "run parameters (TOML)")->required();
   energy->add_flag("--json", json, "print as JSON");

@@ -50,7 +50,7 @@ Run::Run(Model& m)
 
 void Run::restart() { simulation = std::make_unique<Simulation>(problem, *integrator, dt); }
 
-std::vector<std::pair<std::string, std::string>> platform_facts(const RunConfig& config) {
+Platform platform_facts(const RunConfig& config) {
   return {{"simd_target", simd::target_name()},
           {"simd_lanes", std::to_string(simd::lanes())},
           {"threads", std::to_string(omp_get_max_threads())},
@@ -64,7 +64,7 @@ long summary_every(const RunConfig& config) {
 }
 
 void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir,
-                          std::vector<std::pair<std::string, std::string>> platform) {
+                          std::vector<RunSegment> segments) {
   const long energy_every = config.output.energy_every;
   Simulation& simulation = *run.simulation;
   if (energy_every > 0) simulation.add_observer(std::make_unique<EnergyWriter>(dir, energy_every));
@@ -77,7 +77,7 @@ void add_output_observers(Run& run, const RunConfig& config, const std::filesyst
     simulation.add_observer(std::make_unique<MinimizationReporter>(dir, integrator.emtol, stdout));
   else
     simulation.add_observer(
-        std::make_unique<SummaryReporter>(dir, summary_every(config), stdout, std::move(platform)));
+        std::make_unique<SummaryReporter>(dir, summary_every(config), stdout, std::move(segments)));
 }
 
 }  // namespace vimd

@@ -43,15 +43,17 @@ struct Run {
   std::unique_ptr<Simulation> simulation;
 };
 
-// Facts about where a run runs, for its summary: the pair kernels' SIMD target and width, threads.
-std::vector<std::pair<std::string, std::string>> platform_facts(const RunConfig& config);
+// Facts about where a run runs, for its summary and checkpoints: the pair kernels' SIMD target and
+// width, threads, precision.
+Platform platform_facts(const RunConfig& config);
 
 // Steps between the samples of the end-of-run summary: the energy output's, else about 1000 in all.
 long summary_every(const RunConfig& config);
 
 // The files of a run in dir, which must exist: energies, trajectory, final structure, and the
-// end-of-run summary (a minimisation's own for type = "minimize") naming `platform`.
+// end-of-run summary (a minimisation's own for type = "minimize") naming the platform of each of
+// the run's `segments`.
 void add_output_observers(Run& run, const RunConfig& config, const std::filesystem::path& dir,
-                          std::vector<std::pair<std::string, std::string>> platform = {});
+                          std::vector<RunSegment> segments = {});
 
 }  // namespace vimd

@@ -10,13 +10,20 @@
 #include <iterator>
 
 #include "engine/errors.hpp"
+#include "engine/fingerprint.hpp"
 
 namespace vimd {
 namespace {
 
 // Native byte order: a checkpoint continues a run on the machine (or kind of machine) it stopped on.
-constexpr char kMagic[8] = {'V', 'I', 'M', 'D', 'C', 'P', 'T', '1'};
+constexpr char kMagic[8] = {'V', 'I', 'M', 'D', 'C', 'P', 'T', '2'};
+// Version 1 had no checksum and no segments.
+constexpr char kMagicWithoutChecksum[8] = {'V', 'I', 'M', 'D', 'C', 'P', 'T', '1'};
 constexpr char kEnd[8] = {'E', 'N', 'D', 'V', 'I', 'M', 'D', '.'};
+
+[[noreturn]] void unusable(const std::string& file, const std::string& what) {
+  throw InputError(file, 0, "not a usable vimd checkpoint (" + what + ")");
+}
 
 [[noreturn]] void write_failed(const std::filesystem::path& file, const std::string& what) {
   throw std::runtime_error(file.string() + ": cannot write the checkpoint (" + what + "): " + std::strerror(errno));
@@ -41,6 +48,10 @@ class Writer {
     put(p, n * sizeof(double));
   }
   void coords(const Coords& c) { doubles(c.data(), c.size()); }
+  void pairs(const std::vector<std::pair<std::string, std::string>>& list) {
+    raw<std::uint64_t>(list.size());
+    for (const auto& [key, value] : list) text(key), text(value);
+  }
   void carried(const Carried& c) {
     raw<std::uint64_t>(c.items.size());
     for (const auto& [name, values] : c.items) {
@@ -48,7 +59,10 @@ class Writer {
       doubles(values.data(), values.size());
     }
   }
-  void flush() {
+  // The checksum of everything put so far, then everything out to the file.
+  void seal() {
+    const std::uint64_t sum = checksum_.value();
+    put(&sum, sizeof sum);
     send(buffer_.data(), buffer_.size());
     buffer_.clear();
   }
@@ -56,7 +70,11 @@ class Writer {
  private:
   static constexpr std::size_t kBuffer = 1 << 16;
   void put(const void* p, std::size_t n) {
-    if (buffer_.size() + n > kBuffer) flush();
+    checksum_.add_bytes(p, n);
+    if (buffer_.size() + n > kBuffer) {
+      send(buffer_.data(), buffer_.size());
+      buffer_.clear();
+    }
     if (n >= kBuffer)
       send(static_cast<const char*>(p), n);
     else
@@ -80,6 +98,7 @@ class Writer {
   int fd_;
   std::filesystem::path file_;
   std::string buffer_;
+  Fingerprint checksum_;
 };
 
 class Reader {
@@ -106,6 +125,15 @@ class Reader {
     if (v.size() % 3) fail("an array is not 3 x N");
     return Eigen::Map<const Coords>(v.data(), 3, static_cast<Eigen::Index>(v.size() / 3));
   }
+  std::vector<std::pair<std::string, std::string>> pairs() {
+    std::vector<std::pair<std::string, std::string>> list;
+    const std::size_t n = count(2 * sizeof(std::uint64_t));  // each pair: two lengths at least
+    for (std::size_t k = 0; k < n; ++k) {
+      std::string key = text();
+      list.emplace_back(std::move(key), text());
+    }
+    return list;
+  }
   Carried carried() {
     Carried c;
     const std::size_t n = count(1);
@@ -116,9 +144,7 @@ class Reader {
     return c;
   }
   bool at_end() const { return pos_ == bytes_.size(); }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw InputError(file_, 0, "not a usable vimd checkpoint (" + what + ")");
-  }
+  [[noreturn]] void fail(const std::string& what) const { unusable(file_, what); }
 
  private:
   std::size_t count(std::size_t element) {
@@ -128,6 +154,7 @@ class Reader {
   }
   void take(void* out, std::size_t n) {
     if (n > bytes_.size() - pos_) fail("truncated or damaged");
+    if (n == 0) return;  // out may be an empty vector's null data(), which memcpy must not get
     std::memcpy(out, bytes_.data() + pos_, n);
     pos_ += n;
   }
@@ -137,6 +164,12 @@ class Reader {
 
 }  // namespace
 
+std::uint64_t checkpoint_checksum(const void* data, std::size_t n) {
+  Fingerprint checksum;
+  checksum.add_bytes(data, n);
+  return checksum.value();
+}
+
 void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
   // A crash at any point leaves either the old checkpoint or the new one, never half of one.
   const std::filesystem::path fresh = file.string() + ".new";
@@ -144,8 +177,7 @@ void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
   if (fd < 0) write_failed(fresh, "open");
   Writer w(fd, fresh);
   w.raw(kMagic);
-  w.raw<std::uint64_t>(cp.identity.size());
-  for (const auto& [key, value] : cp.identity) w.text(key), w.text(value);
+  w.pairs(cp.identity);
   w.raw<std::int64_t>(cp.first_step);
   w.raw<std::int64_t>(cp.last_step);
   const State& s = cp.state;
@@ -161,8 +193,13 @@ void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
   w.carried(cp.totals);
   w.raw<std::uint64_t>(cp.observers.size());
   for (const Carried& c : cp.observers) w.carried(c);
+  w.raw<std::uint64_t>(cp.segments.size());
+  for (const RunSegment& segment : cp.segments) {
+    w.raw<std::int64_t>(segment.first_step);
+    w.pairs(segment.platform);
+  }
   w.raw(kEnd);
-  w.flush();
+  w.seal();
   if (::fsync(fd) != 0) {
     const int saved = errno;
     ::close(fd);
@@ -182,16 +219,26 @@ void write_checkpoint(const std::filesystem::path& file, const Checkpoint& cp) {
 Checkpoint read_checkpoint(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError(file.string(), 0, "cannot open the checkpoint (is this the directory of a stopped run?)");
-  Reader r(std::string(std::istreambuf_iterator<char>(in), {}), file.string());
-  char magic[sizeof kMagic];
-  for (char& c : magic) c = r.raw<char>();
-  if (std::memcmp(magic, kMagic, sizeof kMagic) != 0) r.fail("wrong magic number");
+  std::string bytes(std::istreambuf_iterator<char>(in), {});
+  // The magic number first, so that an old or foreign file is named as such rather than as damaged.
+  if (bytes.size() >= sizeof kMagic && std::memcmp(bytes.data(), kMagicWithoutChecksum, sizeof kMagic) == 0)
+    throw InputError(file.string(), 0,
+                     "written by an older vimd, without a checksum, so it cannot be verified: refusing to continue "
+                     "from it (start the run afresh with --overwrite)");
+  if (bytes.size() < sizeof kMagic + sizeof(std::uint64_t))
+    unusable(file.string(), "truncated: " + std::to_string(bytes.size()) + " bytes");
+  if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) unusable(file.string(), "wrong magic number");
+  const std::size_t body = bytes.size() - sizeof(std::uint64_t);
+  std::uint64_t stored;
+  std::memcpy(&stored, bytes.data() + body, sizeof stored);
+  if (checkpoint_checksum(bytes.data(), body) != stored)
+    unusable(file.string(), "damaged or truncated: its checksum does not match its " + std::to_string(bytes.size()) +
+                                " bytes");
+  bytes.resize(body);
+  Reader r(std::move(bytes), file.string());
+  for (std::size_t k = 0; k < sizeof kMagic; ++k) r.raw<char>();  // checked above
   Checkpoint cp;
-  const auto n_identity = r.raw<std::uint64_t>();
-  for (std::uint64_t k = 0; k < n_identity && k < 1000; ++k) {
-    std::string key = r.text();
-    cp.identity.emplace_back(std::move(key), r.text());
-  }
+  cp.identity = r.pairs();
   cp.first_step = r.raw<std::int64_t>();
   cp.last_step = r.raw<std::int64_t>();
   State& s = cp.state;
@@ -207,6 +254,12 @@ Checkpoint read_checkpoint(const std::filesystem::path& file) {
   cp.totals = r.carried();
   const auto n_observers = r.raw<std::uint64_t>();
   for (std::uint64_t k = 0; k < n_observers && k < 1000; ++k) cp.observers.push_back(r.carried());
+  const auto n_segments = r.raw<std::uint64_t>();
+  for (std::uint64_t k = 0; k < n_segments && k < 100000; ++k) {
+    RunSegment& segment = cp.segments.emplace_back();
+    segment.first_step = r.raw<std::int64_t>();
+    segment.platform = r.pairs();
+  }
   char end[sizeof kEnd];
   for (char& c : end) c = r.raw<char>();
   if (std::memcmp(end, kEnd, sizeof kEnd) != 0 || !r.at_end()) r.fail("damaged end marker");

@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "engine/system_identity.hpp"
+
 namespace vimd {
 
 namespace {
@@ -176,38 +178,8 @@ std::string format_number(double x) {
   return out.str();
 }
 
-std::string Fingerprint::text() const {
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash_));
-  return buf;
-}
-
 RunIdentity run_identity(const System& s, const RunConfig& config, const ConfigSchema& schema, long summary_every) {
-  Fingerprint topology;
-  topology.add_all(s.mass);
-  topology.add_all(s.charge);
-  topology.add_all(s.c6);
-  topology.add_all(s.c12);
-  for (int t : s.type) topology.add(t);
-  for (const Constraint& x : s.constraints) topology.add(x.i), topology.add(x.j), topology.add(x.length);
-  for (const Bond& x : s.bonds) topology.add(x.i), topology.add(x.j), topology.add(x.length), topology.add(x.k);
-  for (const Angle& x : s.angles)
-    topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.theta0), topology.add(x.force_constant);
-  const auto add_atoms = [&](const auto& x) { topology.add(x.i), topology.add(x.j), topology.add(x.k), topology.add(x.l); };
-  for (const auto* list : {&s.proper_dihedrals, &s.periodic_impropers})
-    for (const PeriodicDihedral& x : *list)
-      add_atoms(x), topology.add(x.phi_s), topology.add(x.force_constant), topology.add(x.multiplicity);
-  for (const RyckaertBellemansDihedral& x : s.rb_dihedrals) add_atoms(x), topology.add(x.c);
-  for (const HarmonicImproper& x : s.harmonic_impropers) add_atoms(x), topology.add(x.xi0), topology.add(x.force_constant);
-  for (const Pair14& x : s.pairs14) topology.add(x.i), topology.add(x.j), topology.add(x.c6), topology.add(x.c12), topology.add(x.qq);
-  for (const VirtualSite& x : s.virtual_sites)
-    topology.add(x.kind), topology.add(x.site), topology.add(x.i), topology.add(x.j), topology.add(x.k),
-        topology.add(x.a), topology.add(x.b), topology.add(x.c);
-  RunIdentity identity = {
-      {"atoms", std::to_string(s.n_atoms())},
-      {"topology (fingerprint of masses, charges, types, LJ, bonds, angles, constraints; dihedrals, 1-4 pairs)",
-       topology.text()},
-      {"box", exact_text(s.box.length[0]) + " " + exact_text(s.box.length[1]) + " " + exact_text(s.box.length[2])}};
+  RunIdentity identity = system_identity(s);
   for (const ConfigKey& key : schema.keys)
     if (key.on_continue == OnContinue::must_match)
       identity.emplace_back("[" + key.section + "] " + key.name, key.value(config));

@@ -17,6 +17,7 @@
 
 #include "engine/checkpoint.hpp"
 #include "engine/config.hpp"
+#include "engine/fingerprint.hpp"
 #include "engine/system.hpp"
 
 namespace vimd {
@@ -97,24 +98,7 @@ std::string exact_text(double x);
 // The text of x as an error message quotes a setting (as an ostream prints it: 0.9, 1e-05).
 std::string format_number(double x);
 
-// FNV-1a over the bytes of what is added: any change shows.
-class Fingerprint {
- public:
-  template <class T>
-  void add(const T& x) {
-    const auto* p = reinterpret_cast<const unsigned char*>(&x);
-    for (std::size_t k = 0; k < sizeof x; ++k) hash_ = (hash_ ^ p[k]) * 1099511628211ull;
-  }
-  void add_all(const Eigen::MatrixXd& m) {
-    for (Eigen::Index k = 0; k < m.size(); ++k) add(m.data()[k]);
-  }
-  std::string text() const;
-
- private:
-  std::uint64_t hash_ = 14695981039346656037ull;
-};
-
-// What a continued run must share with the stopped one: the system's size, interactions and box,
+// What a continued run must share with the stopped one: the resolved system (system_identity),
 // then every key marked must_match (as "[section] name"), then how often the summary samples.
 RunIdentity run_identity(const System& system, const RunConfig& config, const ConfigSchema& schema,
                          long summary_every);

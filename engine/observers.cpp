@@ -260,8 +260,8 @@ EnergyStatistics energy_statistics(const std::vector<double>& time, const std::v
 }
 
 SummaryReporter::SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out,
-                                 std::vector<std::pair<std::string, std::string>> platform)
-    : every_(every), dir_(dir), out_(out), platform_(std::move(platform)) {}
+                                 std::vector<RunSegment> segments)
+    : every_(every), dir_(dir), out_(out), segments_(std::move(segments)) {}
 
 void SummaryReporter::observe(const RunInfo& info, const State&, const Sample& s) {
   time_.push_back(s.time);
@@ -328,9 +328,10 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
   if (totals.mesh_seconds > 0)
     std::fprintf(out_, "                    PME mesh %.3f ms/step (%.1f%% of the wall time)\n",
                  1e3 * totals.mesh_seconds / steps, 100 * totals.mesh_seconds / totals.wall_seconds);
-  if (!platform_.empty()) {
+  for (const RunSegment& segment : segments_) {
     std::fprintf(out_, "  platform         ");
-    for (const auto& [key, value] : platform_) std::fprintf(out_, " %s %s;", key.c_str(), value.c_str());
+    if (segments_.size() > 1) std::fprintf(out_, " from step %ld:", segment.first_step);
+    for (const auto& [key, value] : segment.platform) std::fprintf(out_, " %s %s;", key.c_str(), value.c_str());
     std::fprintf(out_, "\n");
   }
   for (std::size_t k = 0; k < diagnostics_.size(); ++k)
@@ -362,7 +363,16 @@ void SummaryReporter::finish(const RunInfo& info, const State&, const RunTotals&
         << "  \"neighbor_build_seconds\": " << number(totals.neighbor_build_seconds) << ",\n"
         << "  \"mesh_seconds\": " << number(totals.mesh_seconds) << ",\n"
         << "  \"mean_iterations\": " << number(totals.solver_iterations / steps);
-    for (const auto& [key, value] : platform_) out << ",\n  \"" << key << "\": \"" << value << "\"";
+    if (!segments_.empty()) {  // this process's facts, then every segment's (one line each)
+      for (const auto& [key, value] : segments_.back().platform) out << ",\n  \"" << key << "\": \"" << value << "\"";
+      out << ",\n  \"segments\": [";
+      for (std::size_t k = 0; k < segments_.size(); ++k) {
+        out << (k ? "," : "") << "\n    {\"first_step\": " << segments_[k].first_step;
+        for (const auto& [key, value] : segments_[k].platform) out << ", \"" << key << "\": \"" << value << "\"";
+        out << "}";
+      }
+      out << "\n  ]";
+    }
     for (std::size_t k = 0; k < diagnostics_.size(); ++k)
       out << ",\n  \"mean_" << info.diagnostic_names[k] << "\": " << number(mean(diagnostics_[k]));
     out << "\n}\n";

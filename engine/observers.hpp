@@ -120,10 +120,11 @@ EnergyStatistics energy_statistics(const std::vector<double>& time, const std::v
 // are those of the conserved energy (the total energy when no thermostat works).
 class SummaryReporter : public Observer {
  public:
-  // platform: facts about where the run ran (e.g. {"simd_target", "AVX2"}, {"threads", "2"}), printed
-  // next to the cost and written to summary.json as strings, so every speed figure names its machine.
-  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out,
-                  std::vector<std::pair<std::string, std::string>> platform = {});
+  // segments: the run's processes (one, or one per continue), each with facts about where it ran
+  // (e.g. {"simd_target", "AVX2"}, {"threads", "2"}), this process's last. Its facts are printed next
+  // to the cost and written to summary.json as strings, so every speed figure names its machine;
+  // summary.json lists every segment's as well.
+  SummaryReporter(const std::filesystem::path& dir, long every, std::FILE* out, std::vector<RunSegment> segments = {});
   long every() const override { return every_; }
   void observe(const RunInfo&, const State&, const Sample&) override;
   void finish(const RunInfo&, const State&, const RunTotals&) override;
@@ -134,7 +135,7 @@ class SummaryReporter : public Observer {
   long every_;
   std::filesystem::path dir_;
   std::FILE* out_;
-  std::vector<std::pair<std::string, std::string>> platform_;
+  std::vector<RunSegment> segments_;
   std::vector<double> time_, conserved_, temperature_, constraint_rms_;
   std::vector<std::vector<double>> diagnostics_;
 };

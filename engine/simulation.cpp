@@ -105,6 +105,7 @@ void Simulation::check_sane(const State& state, State* copy) const {
 void Simulation::write_checkpoint_now(const State& state, const RunInfo& info, const RunTotals& totals) {
   Checkpoint cp;
   cp.identity = checkpoints_.identity;
+  cp.segments = checkpoints_.segments;
   cp.first_step = info.first_step;
   cp.last_step = info.last_step;
   cp.state = state;

@@ -85,6 +85,7 @@ struct CheckpointPolicy {
   long every_steps = 0;
   double every_seconds = 900;
   RunIdentity identity;
+  std::vector<RunSegment> segments;  // of the run so far, this process's last
 };
 
 // A run that cannot go on: a non-finite or absurd force, position, velocity or energy.

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # A real SIGTERM to a running `vimd run`, then `--continue`: exit 143 with the command
 # that continues it, partial outputs and state.cpt kept; the continued run's outputs equal an
-# uninterrupted run's byte for byte (summary.json: all but wall-time fields). Also: a checkpoint of
-# another configuration is refused naming what differs, a finished run is neither continued nor
-# overwritten without --overwrite. Usage: stop_continue.sh VIMD_BINARY SOURCE_DIR WORK_DIR
+# uninterrupted run's byte for byte (summary.json: all but wall-time fields and the segments). Also:
+# a checkpoint of another configuration or topology is refused naming what differs, a damaged one
+# naming the checksum, a continue under another SIMD target unless allowed (then summary.json says
+# so); a second run into a running one's directory is refused naming it, no lock outlives kill -9;
+# a finished run is neither continued nor overwritten without --overwrite.
+# Usage: stop_continue.sh VIMD_BINARY SOURCE_DIR WORK_DIR
 set -uo pipefail
 vimd=$1 src=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
@@ -17,14 +20,39 @@ sed -e "s|^structure = .*|structure = \"$src/inputs/cluster8/conf.gro\"|" \
     -e "s/^steps = .*/steps = 40000/" -e "s/^energy_every = .*/energy_every = 10/" \
     -e "s/^trajectory_every = .*/trajectory_every = 500/" "$src/inputs/cluster8/run.toml" > "$work/run.toml"
 
-"$vimd" run "$work/run.toml" --out "$work/whole" > "$work/whole.log" 2>&1 || fail "uninterrupted run: $(cat "$work/whole.log")"
+# Waits (up to 60 s) until the run writing into $1 is well under way.
+wait_under_way() {
+  for _ in $(seq 600); do
+    [[ -f "$1/energy.csv.partial" && $(wc -l < "$1/energy.csv.partial") -gt 200 ]] && break
+    sleep 0.1
+  done
+}
+
+# The uninterrupted run; while it runs, a second run into its directory is refused, naming it.
+"$vimd" run "$work/run.toml" --out "$work/whole" > "$work/whole.log" 2>&1 &
+whole_pid=$!
+wait_under_way "$work/whole"
+out=$("$vimd" run "$work/run.toml" --out "$work/whole" --overwrite 2>&1); rc=$?
+if [[ $rc -eq 2 && "$out" == *"another vimd run is writing into this directory (pid $whole_pid on host "*", started "* ]]; then
+  ok "a second run into a running one's directory refused: ${out:0:200}"
+else
+  fail "a second run into a running one's directory: exit $rc: $out"
+fi
+wait $whole_pid || fail "uninterrupted run: $(cat "$work/whole.log")"
+[[ -e "$work/whole/.vimd.lock" ]] && fail "the finished run left its lock file"
+
+# A run killed with SIGKILL holds no lock afterwards.
+"$vimd" run "$work/run.toml" --out "$work/killed" > /dev/null 2>&1 &
+killed_pid=$!
+wait_under_way "$work/killed"
+kill -KILL $killed_pid
+wait $killed_pid 2> /dev/null
+out=$("$vimd" run "$work/run.toml" --out "$work/killed" --steps 10 2>&1) && ok "no lock outlives kill -9" ||
+  fail "a run into the directory of a killed one: $out"
 
 "$vimd" run "$work/run.toml" --out "$work/split" > "$work/split.log" 2> "$work/split.err" &
 pid=$!
-for _ in $(seq 600); do  # until the run is well under way (or 60 s)
-  [[ -f "$work/split/energy.csv.partial" && $(wc -l < "$work/split/energy.csv.partial") -gt 200 ]] && break
-  sleep 0.1
-done
+wait_under_way "$work/split"
 kill -TERM $pid
 wait $pid
 rc=$?
@@ -61,6 +89,54 @@ for setting in "switch_smoothness = 3" "coulomb_switch = 0.5" "coulomb_modifier 
     fail "continuing with $setting: exit $rc: $out"
   fi
 done
+# Nor a topology that resolves to other exclusions (the n-decane melt stopped, continued with nrexcl
+# 1 instead of 3): named as such.
+cp -r "$src/inputs/alkane" "$work/alkane"
+sed -i -e "s/^steps = .*/steps = 100000/" -e "s/^energy_every = .*/energy_every = 1/" "$work/alkane/run.toml"
+"$vimd" run "$work/alkane/run.toml" --out "$work/alkane/out" > /dev/null 2>&1 &
+alkane_pid=$!
+for _ in $(seq 600); do
+  [[ -f "$work/alkane/out/energy.csv.partial" && $(wc -l < "$work/alkane/out/energy.csv.partial") -gt 3 ]] && break
+  sleep 0.1
+done
+kill -TERM $alkane_pid
+wait $alkane_pid
+sed -i 's/^DEC 3$/DEC 1/' "$work/alkane/decane.itp"
+out=$("$vimd" run "$work/alkane/run.toml" --continue "$work/alkane/out" 2>&1); rc=$?
+if [[ $rc -eq 2 && "$out" == *"system: exclusions: "*" in the checkpoint, "*" here"* && "$out" != *"system: bonds"* ]]; then
+  ok "a topology with another nrexcl refused: ${out:0:240}..."
+else
+  fail "continuing with nrexcl 1 instead of 3: exit $rc: $out"
+fi
+# A copy of the stopped run with one bit flipped in its checkpoint: refused naming the checksum.
+cp -r "$work/split" "$work/flipped"
+size=$(stat -c %s "$work/flipped/state.cpt")
+/usr/bin/python3 -c "import sys; f=open(sys.argv[1],'r+b'); f.seek(int(sys.argv[2])); b=f.read(1); f.seek(-1,1); f.write(bytes([b[0]^4]))" \
+  "$work/flipped/state.cpt" $((size / 2))
+out=$("$vimd" run "$work/run.toml" --continue "$work/flipped" 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"flipped/state.cpt"*"checksum does not match"* ]] && ok "a flipped bit refused: $out" ||
+  fail "continuing from a damaged checkpoint: exit $rc: $out"
+# A copy continued under another SIMD target: refused unless allowed, and then recorded.
+targets=$("$vimd" check "$work/run.toml" | sed -n 's/.*chosen at run time from \([^;]*\);.*/\1/p')
+ran=$(grep -o 'SIMD [A-Za-z0-9_]*' "$work/split.log" | head -1 | cut -d' ' -f2)
+other=$(tr ',' '\n' <<< "$targets" | tr -d ' ' | grep -v -x "$ran" | head -1)
+if [[ -z "$other" ]]; then
+  fail "no second SIMD target on this machine to continue under (targets: $targets)"
+else
+  cp -r "$work/split" "$work/simd"
+  out=$("$vimd" --simd "$other" run "$work/run.toml" --continue "$work/simd" 2>&1); rc=$?
+  [[ $rc -eq 2 && "$out" == *"SIMD target $ran"*"--allow-simd-change"* ]] && ok "a continue under $other refused" ||
+    fail "continuing under $other after $ran: exit $rc: $out"
+  "$vimd" --simd "$other" run "$work/run.toml" --continue "$work/simd" --allow-simd-change > "$work/simd.log" 2>&1 ||
+    fail "continuing with --allow-simd-change: $(cat "$work/simd.log")"
+  if grep -q "\"first_step\": 0, \"simd_target\": \"$ran\"" "$work/simd/summary.json" &&
+     grep -q "\"simd_target\": \"$other\".*\"simd_change\": \"allowed by --allow-simd-change, from $ran\"" \
+       "$work/simd/summary.json"; then
+    ok "summary.json records both segments' SIMD targets and the allowed change"
+  else
+    fail "summary.json after a SIMD change: $(cat "$work/simd/summary.json")"
+  fi
+fi
 # Nor may a new run silently replace the stopped one.
 out=$("$vimd" run "$work/run.toml" --out "$work/split" 2>&1); rc=$?
 [[ $rc -eq 2 && "$out" == *"holds a stopped run"* ]] && ok "a stopped run is not overwritten" || fail "new run over a stopped one: exit $rc: $out"
@@ -69,12 +145,13 @@ ${continue_command/#vimd /$vimd } > "$work/continue.log" 2>&1 || fail "continuin
 for f in energy.csv energy.xvg traj.trr confout.gro; do
   if cmp -s "$work/whole/$f" "$work/split/$f"; then ok "$f identical to the uninterrupted run's"; else fail "$f differs"; fi
 done
-if diff <(grep -v -e _seconds -e ns_per_day "$work/whole/summary.json") \
-        <(grep -v -e _seconds -e ns_per_day "$work/split/summary.json") > /dev/null; then
-  ok "summary.json identical but for wall time"
+if diff <(grep -v -e _seconds -e ns_per_day -e '"first_step"' "$work/whole/summary.json") \
+        <(grep -v -e _seconds -e ns_per_day -e '"first_step"' "$work/split/summary.json") > /dev/null; then
+  ok "summary.json identical but for wall time and segments"
 else
   fail "summary.json differs"; diff "$work/whole/summary.json" "$work/split/summary.json"
 fi
+[[ $(grep -c '"first_step"' "$work/split/summary.json") -eq 2 ]] || fail "summary.json does not list two segments"
 ls "$work/split"/*.partial > /dev/null 2>&1 && fail "partial files left after the continued run finished"
 
 out=$("$vimd" run "$work/run.toml" --continue "$work/split" 2>&1); rc=$?

@@ -2,12 +2,16 @@
 // exactly what the uninterrupted run writes, bit for bit, for RATTLE, SHAKE, the variational
 // integrator, RATTLE with the v-rescale thermostat and the minimiser, with 1 and 2 threads, on
 // SPC/E water216 (the neighbour list is rebuilt every few steps, so its build positions must be
-// part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint)
-// and refused checkpoints of another run.
+// part of the checkpoint). Also: a crash between checkpoints (outputs longer than the checkpoint),
+// further stop signals while the stop's checkpoint is written, refused checkpoints of another run
+// (also of a topology that resolves differently) and damaged ones, and the output directory's lock.
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <unistd.h>
+
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -17,11 +21,14 @@
 
 #include "app/run_schema.hpp"
 #include "engine/checkpoint.hpp"
+#include "engine/config_schema.hpp"
 #include "engine/errors.hpp"
 #include "engine/input.hpp"
 #include "engine/observers.hpp"
+#include "engine/output_lock.hpp"
 #include "engine/simulation.hpp"
 #include "engine/stop.hpp"
+#include "engine/system_identity.hpp"
 #include "forcefields/registry.hpp"
 #include "integrators/registry.hpp"
 
@@ -72,7 +79,8 @@ struct Engine {
     simulation->add_observer(std::make_unique<TrajectoryWriter>(dir, 5));
     simulation->add_observer(std::make_unique<FinalStructureWriter>(dir));
     simulation->add_observer(std::make_unique<SummaryReporter>(dir, 1, sink()));
-    simulation->set_checkpoints({dir / "state.cpt", checkpoint_every, 900.0, {{"atoms", "648"}, {"type", type}}});
+    simulation->set_checkpoints(
+        {dir / "state.cpt", checkpoint_every, 900.0, {{"atoms", "648"}, {"type", type}}, {{0, {{"simd_target", "any"}}}}});
   }
   static std::FILE* sink() {
     static std::FILE* f = std::tmpfile();
@@ -202,6 +210,68 @@ TEST(StopAndContinue, AfterACrashBetweenCheckpoints) {
   expect_same_outputs(whole, split, "crash");
 }
 
+// Further SIGTERMs while the stop's checkpoint is being written (here: while the observers hand in
+// their part), `count` of them.
+class SignalsWhileCheckpointing : public Observer {
+ public:
+  explicit SignalsWhileCheckpointing(int count) : count_(count) {}
+  long every() const override { return 0; }
+  bool needs_sample() const override { return false; }
+  void observe(const RunInfo&, const State&, const Sample&) override {}
+  Carried checkpoint(const RunInfo&) override {
+    if (stop_signal() != 0)
+      for (int k = 0; k < count_; ++k) std::raise(SIGTERM);
+    return {};
+  }
+
+ private:
+  int count_;
+};
+
+class RealSignalAt : public Observer {
+ public:
+  explicit RealSignalAt(long step) : step_(step) {}
+  long every() const override { return 1; }
+  bool needs_sample() const override { return false; }
+  void observe(const RunInfo&, const State& state, const Sample&) override {
+    if (state.step == step_) std::raise(SIGTERM);
+  }
+
+ private:
+  long step_;
+};
+
+// A process that installs the stop handlers, gets a real SIGTERM after step 6 and `more` while the
+// stop's checkpoint is written; exits 0 if the run stopped there.
+void run_with_signals(const fs::path& dir, int more) {
+  install_stop_handlers();
+  Engine e("rattle", dir, 0);
+  e.simulation->add_observer(std::make_unique<RealSignalAt>(6));
+  e.simulation->add_observer(std::make_unique<SignalsWhileCheckpointing>(more));
+  const bool stopped = e.simulation->run(e.input.state, kSteps).stop_signal == SIGTERM && e.input.state.step == 6;
+  std::_Exit(stopped ? 0 : 1);
+}
+
+// A second SIGTERM (a scheduler's or a user's impatience) leaves the stop as it was: the checkpoint
+// is written, the run can continue. Before, it ended the process, leaving state.cpt.new only.
+TEST(StopAndContinue, ASecondSignalLeavesTheStopToFinish) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path dir = fresh_dir("second_signal");
+  EXPECT_EXIT(run_with_signals(dir, 1), ::testing::ExitedWithCode(0),
+              "a second SIGTERM: already stopping after this step, with a checkpoint to continue from");
+  EXPECT_EQ(read_checkpoint(dir / "state.cpt").state.step, 6);
+  EXPECT_FALSE(fs::exists(dir / "state.cpt.new"));
+}
+
+// A third ends the process at once, by the signal, saying what is lost.
+TEST(StopAndContinue, AThirdSignalEndsAtOnce) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path dir = fresh_dir("third_signal");
+  EXPECT_EXIT(run_with_signals(dir, 2), ::testing::KilledBySignal(SIGTERM),
+              "a third SIGTERM: ending now, without the stop's checkpoint");
+  EXPECT_FALSE(fs::exists(dir / "state.cpt"));
+}
+
 TEST(Checkpoint, IdentityMismatchNamesWhatDiffers) {
   const RunIdentity stored = {{"atoms", "648"}, {"dt", "0.002"}, {"[integrator] type", "vi"}};
   EXPECT_NO_THROW(check_identity("state.cpt", stored, stored));
@@ -214,6 +284,59 @@ TEST(Checkpoint, IdentityMismatchNamesWhatDiffers) {
     EXPECT_NE(what.find("[integrator] type: vi in the checkpoint, rattle here"), std::string::npos) << what;
     EXPECT_EQ(what.find("atoms"), std::string::npos) << what;
   }
+}
+
+// The n-decane melt read with its own nrexcl (3) and with nrexcl 1: the same atoms, bonds and
+// parameters, fewer exclusions. A continue across the change is refused, naming the exclusions.
+TEST(Checkpoint, IdentityCoversTheResolvedExclusions) {
+  const fs::path dir = fresh_dir("nrexcl");
+  for (const char* name : {"conf.gro", "topol.top", "decane.itp", "run.toml"})
+    fs::copy_file(fs::path(VIMD_SOURCE_DIR) / "inputs" / "alkane" / name, dir / name);
+  const RunInput as_shipped = read_run_input(dir / "run.toml", run_schema());
+  std::string itp = slurp(dir / "decane.itp");
+  const std::size_t at = itp.find("DEC 3\n");
+  ASSERT_NE(at, std::string::npos) << "decane.itp's [ moleculetype ] line changed";
+  itp.replace(at, 5, "DEC 1");
+  std::ofstream(dir / "decane.itp") << itp;
+  const RunInput fewer_exclusions = read_run_input(dir / "run.toml", run_schema());
+  const RunIdentity stored = run_identity(as_shipped.system, as_shipped.config, run_schema(), 10);
+  try {
+    check_identity("state.cpt", stored, run_identity(fewer_exclusions.system, fewer_exclusions.config, run_schema(), 10));
+    FAIL() << "a continue with nrexcl 1 instead of 3 was accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("system: exclusions: "), std::string::npos) << what;
+    EXPECT_EQ(what.find("system: bonds"), std::string::npos) << what;
+  }
+}
+
+// Each part of the system, changed alone, changes the identity under its own name.
+TEST(Checkpoint, IdentityNamesTheChangedPartOfTheSystem) {
+  const RunInput input = read_run_input(fs::path(VIMD_SOURCE_DIR) / "inputs" / "alkane" / "run.toml", run_schema());
+  const RunIdentity stored = system_identity(input.system);
+  const auto expect_named = [&](const std::string& part, const auto& change) {
+    System s = input.system;
+    change(s);
+    try {
+      check_identity("state.cpt", stored, system_identity(s));
+      ADD_FAILURE() << part << ": the change was not noticed";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("system: " + part + ": "), std::string::npos) << what;
+      EXPECT_EQ(what.find(';'), std::string::npos) << part << ": more than the part changed names: " << what;
+    }
+  };
+  expect_named("masses", [](System& s) { s.mass[7] *= 1.5; });
+  expect_named("charges", [](System& s) { std::swap(s.charge[0], s.charge[1]); });
+  expect_named("atom types and Lennard-Jones parameters", [](System& s) { s.c12(0, 0) *= 1.0000001; });
+  expect_named("bonds", [](System& s) { s.bonds[3].k += 1; });
+  expect_named("angles", [](System& s) { s.angles[3].theta0 += 1e-9; });
+  expect_named("dihedrals", [](System& s) { s.rb_dihedrals[2].c[5] += 1; });
+  expect_named("1-4 pairs", [](System& s) { s.pairs14[5].qq = -s.pairs14[5].qq; });
+  expect_named("constraints", [](System& s) { s.constraints.pop_back(); });
+  expect_named("exclusions", [](System& s) { std::swap(s.exclusions[0], s.exclusions[1]); });
+  expect_named("molecules", [](System& s) { s.molecule.back() += 1; });
+  expect_named("atom, residue and type names", [](System& s) { s.residue_names[0] = "XYZ"; });
 }
 
 // A checkpoint of n atoms at random positions, velocities and forces, at step 7, its integrator
@@ -245,6 +368,80 @@ TEST(Checkpoint, DamagedFilesAreInputErrors) {
     EXPECT_THROW(read_checkpoint(dir / "cut.cpt"), InputError) << keep;
   }
   EXPECT_THROW(read_checkpoint(dir / "missing.cpt"), InputError);
+}
+
+// Any one bit flipped anywhere (the header, the positions, the checksum itself) is refused, naming
+// the file and the checksum; before the checksum, a flip inside an array went unnoticed.
+TEST(Checkpoint, AFlippedBitIsRefused) {
+  const fs::path dir = fresh_dir("flipped");
+  write_checkpoint(dir / "state.cpt", random_checkpoint(5));
+  const std::string bytes = slurp(dir / "state.cpt");
+  for (std::size_t byte = 0; byte < bytes.size(); byte += 7) {
+    std::string damaged = bytes;
+    damaged[byte] = static_cast<char>(damaged[byte] ^ (1 << (byte % 8)));
+    std::ofstream(dir / "damaged.cpt", std::ios::binary) << damaged;
+    try {
+      read_checkpoint(dir / "damaged.cpt");
+      ADD_FAILURE() << "a bit flipped in byte " << byte << " of " << bytes.size() << " was not noticed";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("damaged.cpt"), std::string::npos) << what;
+      if (byte >= 8) {  // past the magic number
+        EXPECT_NE(what.find("checksum does not match"), std::string::npos) << what;
+      }
+    }
+  }
+}
+
+// Version 1 (no checksum): refused as such, not as damaged.
+TEST(Checkpoint, OneWithoutAChecksumIsRefused) {
+  const fs::path dir = fresh_dir("version1");
+  write_checkpoint(dir / "state.cpt", random_checkpoint(2));
+  std::string bytes = slurp(dir / "state.cpt");
+  bytes[7] = '1';
+  std::ofstream(dir / "old.cpt", std::ios::binary) << bytes.substr(0, bytes.size() - 8);
+  try {
+    read_checkpoint(dir / "old.cpt");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("older vimd, without a checksum"), std::string::npos) << e.what();
+  }
+}
+
+// Each segment's platform comes back: a continue compares the last one's SIMD target with its own.
+TEST(Checkpoint, SegmentsComeBack) {
+  const fs::path dir = fresh_dir("segments");
+  Checkpoint cp = random_checkpoint(2);
+  cp.segments = {{0, {{"simd_target", "SSE4"}, {"precision", "double"}}},
+                 {400, {{"simd_target", "AVX2"}, {"simd_change", "allowed by --allow-simd-change, from SSE4"}}}};
+  write_checkpoint(dir / "state.cpt", cp);
+  const Checkpoint back = read_checkpoint(dir / "state.cpt");
+  ASSERT_EQ(back.segments.size(), 2u);
+  EXPECT_EQ(back.segments[0].first_step, 0);
+  EXPECT_EQ(back.segments[0].platform, cp.segments[0].platform);
+  EXPECT_EQ(back.segments[1].first_step, 400);
+  EXPECT_EQ(back.segments[1].platform, cp.segments[1].platform);
+}
+
+// One run per output directory while it runs; the lock file goes with the run.
+TEST(OutputLock, ASecondRunIsRefusedNamingTheHolder) {
+  const fs::path dir = fresh_dir("lock");
+  {
+    const OutputLock first(dir);
+    try {
+      const OutputLock second(dir);
+      FAIL() << "a second lock on the same directory was granted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("another vimd run is writing into this directory (pid " + std::to_string(::getpid()) +
+                          " on host "),
+                std::string::npos)
+          << what;
+      EXPECT_NE(what.find(", started 20"), std::string::npos) << what;
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir / ".vimd.lock"));
+  EXPECT_NO_THROW(OutputLock again(dir));
 }
 
 // Arrays far larger than the writer's buffer, between small fields: every one comes back exactly.

@@ -1,4 +1,4 @@
-// libFuzzer entry for one reader, chosen at compile time (VIMD_FUZZ_READER = gro, top or toml).
+// libFuzzer entry for one reader, chosen at compile time (VIMD_FUZZ_READER = gro, top, toml or checkpoint).
 #include "tests/fuzz/readers.hpp"
 
 #define VIMD_STRINGIFY2(x) #x

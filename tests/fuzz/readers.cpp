@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "app/run_schema.hpp"
+#include "engine/checkpoint.hpp"
 #include "engine/config.hpp"
 #include "engine/errors.hpp"
 #include "engine/gromacs/gro.hpp"
@@ -48,7 +49,8 @@ Reader reader_named(const std::string& name) {
   if (name == "gro") return Reader::Gro;
   if (name == "top") return Reader::Top;
   if (name == "toml") return Reader::Toml;
-  throw std::invalid_argument("unknown reader '" + name + "' (gro, top, toml)");
+  if (name == "checkpoint") return Reader::Checkpoint;
+  throw std::invalid_argument("unknown reader '" + name + "' (gro, top, toml, checkpoint)");
 }
 
 void read_bytes(Reader reader, const std::uint8_t* data, std::size_t size) {
@@ -59,6 +61,7 @@ void read_bytes(Reader reader, const std::uint8_t* data, std::size_t size) {
     case Reader::Gro: files = {dir / "conf.gro"}; break;
     case Reader::Top: files = {dir / "topol.top", dir / "a.itp", dir / "b.itp"}; break;
     case Reader::Toml: files = {dir / "run.toml", dir / "conf.gro", dir / "topol.top"}; break;
+    case Reader::Checkpoint: files = {dir / "state.cpt"}; break;
   }
   if (reader == Reader::Top) {
     std::string_view rest = bytes;
@@ -67,6 +70,9 @@ void read_bytes(Reader reader, const std::uint8_t* data, std::size_t size) {
       write(file, rest.substr(0, nul));
       rest.remove_prefix(std::min(nul + 1, rest.size()));
     }
+  } else if (reader == Reader::Checkpoint) {
+    const std::uint64_t checksum = checkpoint_checksum(bytes.data(), bytes.size());
+    write(files[0], std::string(bytes) + std::string(reinterpret_cast<const char*>(&checksum), sizeof checksum));
   } else {
     write(files[0], bytes);
     for (std::size_t k = 1; k < files.size(); ++k) write(files[k], "");
@@ -76,6 +82,7 @@ void read_bytes(Reader reader, const std::uint8_t* data, std::size_t size) {
       case Reader::Gro: read_gro(files[0]); break;
       case Reader::Top: read_topology(files[0]); break;
       case Reader::Toml: read_config(files[0], run_schema()); break;
+      case Reader::Checkpoint: read_checkpoint(files[0]); break;
     }
   } catch (const InputError& e) {
     for (const fs::path& file : files)

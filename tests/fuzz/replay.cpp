@@ -1,5 +1,5 @@
 // Replays fuzz inputs (seed corpus and the regressions found by fuzzing) through the readers:
-//   fuzz_replay READER PATH...   (READER: gro, top or toml; PATH: files or directories)
+//   fuzz_replay READER PATH...   (READER: gro, top, toml or checkpoint; PATH: files or directories)
 // Exit 1 when any input makes a reader fail other than with an InputError naming its file.
 #include <algorithm>
 #include <cstdio>
@@ -14,7 +14,7 @@ namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s gro|top|toml PATH...\n", argv[0]);
+    std::fprintf(stderr, "usage: %s gro|top|toml|checkpoint PATH...\n", argv[0]);
     return 2;
   }
   const auto reader = vimd::fuzz::reader_named(argv[1]);
