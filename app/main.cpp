@@ -389,12 +389,13 @@ int main(int argc, char** argv) {
   run->add_option("--out", run_options.out, "output directory (default: [output] dir of the config)");
   run->add_option("--steps", run_options.steps, "number of steps (overrides [integrator] steps)")
       ->check(CLI::NonNegativeNumber);
-  run->add_option("--continue", run_options.continue_dir,
+  auto* continue_option = run->add_option("--continue", run_options.continue_dir,
                   "continue the stopped run in this directory (from its state.cpt) up to the configured steps");
   run->add_flag("--overwrite", run_options.overwrite, "replace a finished or stopped run in the output directory");
   run->add_flag("--allow-simd-change", run_options.allow_simd_change,
                 "with --continue: continue under another SIMD target than the stopped run's (not bit-identical to "
-                "an uninterrupted run; summary.json records each segment's target)");
+                "an uninterrupted run; summary.json records each segment's target)")
+      ->needs(continue_option);
   auto* energy = app.add_subcommand("energy", "single-point energy terms of the structure, kJ/mol");
   energy->add_option("config", config, "run parameters (TOML)")->required();
   energy->add_flag("--json", json, "print as JSON");

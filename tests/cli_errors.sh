@@ -82,5 +82,9 @@ long_out+=/$(printf '%0*d' $((4085 - ${#long_out} - 1)) 0)
 expect_error "output path too long" 2 "cannot write in the output directory: File name too long" \
   "$vimd" run "$case_dir/run.toml" --out "$long_out"
 
-echo "$((12 - failures)) passed, $failures failed"
+# The flag only means something for a continue; alone it would be silently ignored.
+expect_error "--allow-simd-change without --continue" 107 "--allow-simd-change requires --continue" \
+  "$vimd" run "$case_dir/run.toml" --allow-simd-change --out "$work/allow"
+
+echo "$((13 - failures)) passed, $failures failed"
 [[ $failures -eq 0 ]]
