@@ -172,10 +172,14 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
     checkpoint = read_checkpoint(checkpoint_file);
     check_identity(checkpoint_file, checkpoint.identity, identity);
     check_simd_target(checkpoint_file, checkpoint.segments, platform, options.allow_simd_change);
-    if (checkpoint.state.step >= checkpoint.first_step + steps)
-      throw InputError(config.file.string(), 0,
-                       "the run in " + dir.string() + " stopped at step " + std::to_string(checkpoint.state.step) +
-                           ", which is not before the configured " + std::to_string(steps) + " steps");
+    if (checkpoint.state.step >= checkpoint.first_step + steps) {
+      const std::string problem = "the run in " + dir.string() + " stopped at step " +
+                                  std::to_string(checkpoint.state.step) + ", which is not before the configured " +
+                                  std::to_string(steps) + " steps";
+      // Where the steps came from: the command line, or the run file's key (its FILE:LINE).
+      if (options.steps >= 0) throw InputError("--steps", 0, problem);
+      throw config.locate(SettingError("integrator", "steps", problem));
+    }
   } else {
     lock.emplace(prepare_output_dir(dir, options.overwrite));
   }

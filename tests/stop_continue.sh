@@ -137,6 +137,15 @@ else
     fail "summary.json after a SIMD change: $(cat "$work/simd/summary.json")"
   fi
 fi
+# A continue to a step the run has already passed: refused at the line that sets the steps.
+steps_line=$(grep -n '^steps' "$work/run.toml" | cut -d: -f1)
+sed 's/^steps = .*/steps = 1/' "$work/run.toml" > "$work/few_steps.toml"
+out=$("$vimd" run "$work/few_steps.toml" --continue "$work/split" 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"few_steps.toml:$steps_line:"*"not before the configured 1 steps"* ]] &&
+  ok "a continue to fewer steps refused at the steps line" || fail "continuing to fewer steps: exit $rc: $out"
+out=$("$vimd" run "$work/run.toml" --continue "$work/split" --steps 1 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"--steps"*"not before the configured 1 steps"* ]] &&
+  ok "--steps below the stop refused naming --steps" || fail "continuing with --steps 1: exit $rc: $out"
 # Nor may a new run silently replace the stopped one.
 out=$("$vimd" run "$work/run.toml" --out "$work/split" 2>&1); rc=$?
 [[ $rc -eq 2 && "$out" == *"holds a stopped run"* ]] && ok "a stopped run is not overwritten" || fail "new run over a stopped one: exit $rc: $out"
