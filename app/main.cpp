@@ -103,13 +103,15 @@ struct RunOptions {
   std::string out, continue_dir;
   long steps = -1;
   bool overwrite = false;
-  bool allow_simd_change = false;
+  bool allow_platform_change = false;
   std::string pinning;  // ThreadPinning::description
 };
 
-// The shell command that continues a stopped run.
+// The shell command that continues a stopped run: with the thread count and SIMD target it ran
+// under, which a bit-identical continue needs (check_platform).
 std::string continue_command(const fs::path& config_file, const fs::path& dir, long steps_override) {
-  std::string command = "vimd run " + fs::absolute(config_file).string() + " --continue " + fs::absolute(dir).string();
+  std::string command = "vimd --threads " + std::to_string(omp_get_max_threads()) + " --simd " + simd::target_name() +
+                        " run " + fs::absolute(config_file).string() + " --continue " + fs::absolute(dir).string();
   if (steps_override >= 0) command += " --steps " + std::to_string(steps_override);
   return command;
 }
@@ -125,21 +127,29 @@ std::string fact(const Platform& platform, const std::string& what) {
 }
 
 // A continue must compute as the stopped segment (the last of `segments`) did to be bit-identical:
-// under its SIMD target, unless the user allows the change (which `here`, this segment's platform,
-// then records).
-void check_simd_target(const fs::path& checkpoint_file, const std::vector<RunSegment>& segments, Platform& here,
-                       bool allow_change) {
+// under its SIMD target and with its thread count (the threads' shares set the order of the sums),
+// unless the user allows the change (which `here`, this segment's platform, then records).
+void check_platform(const fs::path& checkpoint_file, const std::vector<RunSegment>& segments, Platform& here,
+                    bool allow_change) {
   const Platform stopped = segments.empty() ? Platform{} : segments.back().platform;
-  const std::string before = segments.empty() ? "(not recorded)" : fact(stopped, "simd_target");
-  const std::string now = fact(here, "simd_target");
-  if (before == now) return;
+  std::string changes, same_as_before;
+  auto compare = [&](const std::string& fact_name, const std::string& described, const std::string& option) {
+    const std::string before = segments.empty() ? "(not recorded)" : fact(stopped, fact_name);
+    const std::string now = fact(here, fact_name);
+    if (before == now) return;
+    changes += (changes.empty() ? "" : ", ") + described + " " + before + " then, " + now + " now";
+    same_as_before += " " + option + " " + before;
+  };
+  compare("simd_target", "SIMD target", "--simd");
+  compare("threads", "threads", "--threads");
+  if (changes.empty()) return;
   if (!allow_change)
     throw InputError(checkpoint_file.string(), 0,
-                     "the stopped run computed with the SIMD target " + before + " (" + fact(stopped, "simd_lanes") +
-                         " doubles per vector), this one would with " + now + " (" + fact(here, "simd_lanes") +
-                         "): the continued run would not be bit-identical to an uninterrupted one. Continue with --simd " +
-                         before + ", or pass --allow-simd-change to continue anyway (summary.json then records it)");
-  here.emplace_back("simd_change", "allowed by --allow-simd-change, from " + before);
+                     "the stopped run computed on another platform (" + changes +
+                         "): the continued run would not be bit-identical to an uninterrupted one. Continue with" +
+                         same_as_before +
+                         ", or pass --allow-platform-change to continue anyway (summary.json then records it)");
+  here.emplace_back("platform_change", "allowed by --allow-platform-change: " + changes);
 }
 
 int run_command(const fs::path& config_file, const RunOptions& options) {
@@ -171,7 +181,7 @@ int run_command(const fs::path& config_file, const RunOptions& options) {
       throw InputError(dir.string(), 0, "holds a finished run (summary.json): there is nothing to continue");
     checkpoint = read_checkpoint(checkpoint_file);
     check_identity(checkpoint_file, checkpoint.identity, identity);
-    check_simd_target(checkpoint_file, checkpoint.segments, platform, options.allow_simd_change);
+    check_platform(checkpoint_file, checkpoint.segments, platform, options.allow_platform_change);
     if (checkpoint.state.step >= checkpoint.first_step + steps) {
       const std::string problem = "the run in " + dir.string() + " stopped at step " +
                                   std::to_string(checkpoint.state.step) + ", which is not before the configured " +
@@ -396,9 +406,9 @@ int main(int argc, char** argv) {
   auto* continue_option = run->add_option("--continue", run_options.continue_dir,
                   "continue the stopped run in this directory (from its state.cpt) up to the configured steps");
   run->add_flag("--overwrite", run_options.overwrite, "replace a finished or stopped run in the output directory");
-  run->add_flag("--allow-simd-change", run_options.allow_simd_change,
-                "with --continue: continue under another SIMD target than the stopped run's (not bit-identical to "
-                "an uninterrupted run; summary.json records each segment's target)")
+  run->add_flag("--allow-platform-change", run_options.allow_platform_change,
+                "with --continue: continue under another SIMD target or thread count than the stopped run's (not "
+                "bit-identical to an uninterrupted run; summary.json records each segment's)")
       ->needs(continue_option);
   auto* energy = app.add_subcommand("energy", "single-point energy terms of the structure, kJ/mol");
   energy->add_option("config", config, "run parameters (TOML)")->required();

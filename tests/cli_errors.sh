@@ -83,8 +83,8 @@ expect_error "output path too long" 2 "cannot write in the output directory: Fil
   "$vimd" run "$case_dir/run.toml" --out "$long_out"
 
 # The flag only means something for a continue; alone it would be silently ignored.
-expect_error "--allow-simd-change without --continue" 107 "--allow-simd-change requires --continue" \
-  "$vimd" run "$case_dir/run.toml" --allow-simd-change --out "$work/allow"
+expect_error "--allow-platform-change without --continue" 107 "--allow-platform-change requires --continue" \
+  "$vimd" run "$case_dir/run.toml" --allow-platform-change --out "$work/allow"
 
 echo "$((13 - failures)) passed, $failures failed"
 [[ $failures -eq 0 ]]

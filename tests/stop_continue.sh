@@ -125,18 +125,25 @@ if [[ -z "$other" ]]; then
 else
   cp -r "$work/split" "$work/simd"
   out=$("$vimd" --simd "$other" run "$work/run.toml" --continue "$work/simd" 2>&1); rc=$?
-  [[ $rc -eq 2 && "$out" == *"SIMD target $ran"*"--allow-simd-change"* ]] && ok "a continue under $other refused" ||
-    fail "continuing under $other after $ran: exit $rc: $out"
-  "$vimd" --simd "$other" run "$work/run.toml" --continue "$work/simd" --allow-simd-change > "$work/simd.log" 2>&1 ||
-    fail "continuing with --allow-simd-change: $(cat "$work/simd.log")"
+  [[ $rc -eq 2 && "$out" == *"SIMD target $ran then, $other now"*"--simd $ran"*"--allow-platform-change"* ]] &&
+    ok "a continue under $other refused" || fail "continuing under $other after $ran: exit $rc: $out"
+  "$vimd" --simd "$other" run "$work/run.toml" --continue "$work/simd" --allow-platform-change > "$work/simd.log" 2>&1 ||
+    fail "continuing with --allow-platform-change: $(cat "$work/simd.log")"
   if grep -q "\"first_step\": 0, \"simd_target\": \"$ran\"" "$work/simd/summary.json" &&
-     grep -q "\"simd_target\": \"$other\".*\"simd_change\": \"allowed by --allow-simd-change, from $ran\"" \
+     grep -q "\"simd_target\": \"$other\".*\"platform_change\": \"allowed by --allow-platform-change: SIMD target $ran then, $other now\"" \
        "$work/simd/summary.json"; then
     ok "summary.json records both segments' SIMD targets and the allowed change"
   else
     fail "summary.json after a SIMD change: $(cat "$work/simd/summary.json")"
   fi
 fi
+# Another thread count sums in another order: refused too, naming the count to continue with.
+ran_threads=$(grep -o '[0-9]* threads\?' "$work/split.log" | head -1 | cut -d' ' -f1)
+other_threads=$((ran_threads == 1 ? 2 : 1))
+out=$("$vimd" --threads $other_threads run "$work/run.toml" --continue "$work/split" 2>&1); rc=$?
+[[ $rc -eq 2 && "$out" == *"threads $ran_threads then, $other_threads now"*"--threads $ran_threads"* ]] &&
+  ok "a continue with another thread count refused" ||
+  fail "continuing with $other_threads threads after $ran_threads: exit $rc: $out"
 # A continue to a step the run has already passed: refused at the line that sets the steps.
 steps_line=$(grep -n '^steps' "$work/run.toml" | cut -d: -f1)
 sed 's/^steps = .*/steps = 1/' "$work/run.toml" > "$work/few_steps.toml"

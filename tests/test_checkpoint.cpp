@@ -413,7 +413,7 @@ TEST(Checkpoint, SegmentsComeBack) {
   const fs::path dir = fresh_dir("segments");
   Checkpoint cp = random_checkpoint(2);
   cp.segments = {{0, {{"simd_target", "SSE4"}, {"precision", "double"}}},
-                 {400, {{"simd_target", "AVX2"}, {"simd_change", "allowed by --allow-simd-change, from SSE4"}}}};
+                 {400, {{"simd_target", "AVX2"}, {"platform_change", "allowed by --allow-platform-change: SIMD target SSE4 then, AVX2 now"}}}};
   write_checkpoint(dir / "state.cpt", cp);
   const Checkpoint back = read_checkpoint(dir / "state.cpt");
   ASSERT_EQ(back.segments.size(), 2u);
