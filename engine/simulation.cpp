@@ -249,6 +249,11 @@ RunTotals Simulation::loop(State& state, RunInfo& info, RunTotals base) {
         o->fail(info, last_good);
       } catch (...) {
       }
+    // A caller that goes on (the Python module) gets the last good state, not a half-made step's.
+    if (last_good.q.cols() == state.q.cols()) {
+      state.q = last_good.q, state.v = last_good.v;
+      state.step = last_good.step, state.time = last_good.time;
+    }
     throw;
   }
   RunTotals totals = totals_now();

@@ -104,7 +104,8 @@ class Simulation {
   // On the first run only (a later run continues the same state): constrain the start
   // (constrain_start) and init() the integrator. Then step `steps` times, or fewer when a step
   // reports finished. Throws what the integrator throws (ConvergenceError) or BlowUpError, after
-  // which no observer's finish() has run (their fail() has). Returns early, resumable, when a stop
+  // which no observer's finish() has run (their fail() has) and `state` is back at the last good
+  // step (its forces and energies are not: compute them anew). Returns early, resumable, when a stop
   // signal arrives (engine/stop): totals.stop_signal says so.
   RunTotals run(State& state, long steps);
   // Continues a checkpointed run up to its step `last_step`; the observers must be those of the

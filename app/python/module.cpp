@@ -116,8 +116,7 @@ class PySimulation {
     std::copy(values.data(), values.data() + 3 * n, target.data());
     // A changed state starts afresh: constrained and its forces computed by the next run's init().
     forces_current_ = false;
-    run_->restart();
-    attach_observer();
+    restart_run();
   }
 
   // `name`: the method called ("step()" or "run()"), for check_use's message.
@@ -141,7 +140,16 @@ class PySimulation {
         s->holder_.reset();
       }
     } release{this};
-    const RunTotals t = run_->simulation->run(state(), steps);
+    RunTotals t;
+    try {
+      t = run_->simulation->run(state(), steps);
+    } catch (...) {
+      // The simulation put the state back at the last good step; the next run starts afresh from
+      // it, as from assigned positions, with forces computed there.
+      forces_current_ = false;
+      restart_run();
+      throw;
+    }
     forces_current_ = true;
     totals_.add(t);
     return t;
@@ -191,13 +199,23 @@ class PySimulation {
   void attach_observer() {
     auto o = std::make_unique<PythonObserver>();
     o->sample_every = sample_every_;
-    if (observer_) {  // keep the series across a restart
-      o->time = std::move(observer_->time);
-      o->conserved = std::move(observer_->conserved);
-      o->temperature = std::move(observer_->temperature);
-    }
     observer_ = o.get();
     run_->simulation->add_observer(std::move(o));
+  }
+
+  // A fresh Simulation, whose next run starts afresh (constrains the start, init()s the integrator),
+  // with a new observer that keeps the series: the old observer goes with the old Simulation, so
+  // its series are moved out first.
+  void restart_run() {
+    PythonObserver kept;
+    kept.time = std::move(observer_->time);
+    kept.conserved = std::move(observer_->conserved);
+    kept.temperature = std::move(observer_->temperature);
+    run_->restart();
+    attach_observer();
+    observer_->time = std::move(kept.time);
+    observer_->conserved = std::move(kept.conserved);
+    observer_->temperature = std::move(kept.temperature);
   }
 
   std::unique_ptr<Model> model_;

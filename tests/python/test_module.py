@@ -252,6 +252,19 @@ def test_non_convergence_is_a_python_exception():
         sim.step(3)
 
 
+def test_a_failed_step_leaves_the_last_good_state():
+    # Not the half-made step's positions under an unchanged step count (a 0.5 ps step tears the
+    # water apart: RATTLE fails at step 1, its positions already moved).
+    sim = vimd.Simulation(WATER, dt=0.5)
+    start = vimd.Simulation(WATER, dt=0.5)
+    start.step(0)  # the constrained start, as the failing run begins from it
+    with pytest.raises(vimd.ConvergenceError, match="at step 1"):
+        sim.step(3)
+    assert sim.current_step == 0 and sim.time == 0
+    np.testing.assert_array_equal(sim.positions, start.positions)
+    assert sim.energy()["potential"] == pytest.approx(start.energy()["potential"], rel=1e-12)
+
+
 def test_assigning_positions_in_a_callback_is_refused_not_a_crash():
     # In a subprocess: the assignment used to free the running loop under it (exit 139), which
     # would take the test runner down with it.
